@@ -1,0 +1,51 @@
+# shapegrowth: `make run` (the default scene end to end) and `make test`.
+# Both install what they need (Debian packages, .venv) when it is missing.
+SHELL := /bin/bash
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.setup-done
+NP ?= 2
+
+# The JIT cache of compiled forms stays inside the checkout.
+export XDG_CACHE_HOME ?= $(CURDIR)/.cache
+# OpenMPI refuses root without these; CI runs as root on 2 cores.
+export OMPI_ALLOW_RUN_AS_ROOT := 1
+export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
+export OMPI_MCA_rmaps_base_oversubscribe := 1
+# One BLAS thread per MPI rank: the ranks already use the cores.
+export OPENBLAS_NUM_THREADS ?= 1
+export OMP_NUM_THREADS ?= 1
+MPIRUN := mpirun -n $(NP)
+
+.PHONY: setup run test test-serial test-mpi clean help
+
+help:
+	@echo "make run    - the default scene end to end (installs what is missing)"
+	@echo "make test   - the test suite, serial and under mpirun -n $(NP)"
+	@echo "make setup  - Debian packages and .venv only"
+
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml scripts/setup.sh
+	@scripts/setup.sh
+	@touch $@
+
+run: setup
+	$(BIN)/shapegrowth solve configs/beam_bend.yaml --probe 1,0,0
+
+test: setup
+	@$(MAKE) --no-print-directory test-serial test-mpi
+
+test-serial:
+	$(BIN)/python -m pytest -q tests
+
+# Tests marked `mpi` run again on $(NP) ranks; the other ranks' reports go to
+# .cache/rank-N.log and are shown only if the run fails.
+# A failure on one rank only can leave the others waiting in a collective: the
+# timeout turns such a hang into a failure.
+test-mpi:
+	@timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(BIN)/python -m pytest -q --color=no -m mpi tests \
+	  || { tail -n 40 .cache/rank-*.log; exit 1; }
+
+clean:
+	rm -rf results .cache meshes/*.msh meshes/*.json

@@ -1,0 +1,94 @@
+"""Command line: ``shapegrowth COMMAND CONFIG [options]`` (also ``python -m shapegrowth``).
+
+Exit status: 0 success, 2 bad input (config, file, option), 1 a run that failed.
+Bad input prints one ``error:`` line per problem and no traceback; under
+``mpirun`` only rank 0 prints.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+from mpi4py import MPI
+
+from . import __version__
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+log = logging.getLogger("shapegrowth")
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="shapegrowth",
+        description="Shape programming by differential growth (growth-modulated Mooney-Rivlin).")
+    parser.add_argument("--version", action="version", version=f"shapegrowth {__version__}")
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("config", help="YAML config file")
+    common.add_argument("--set", dest="overrides", action="append", default=[],
+                        metavar="KEY=VALUE",
+                        help="override a config entry (dotted key, YAML value); repeatable")
+    common.add_argument("--out", type=Path, default=None,
+                        help="output folder (default: the config's output.dir)")
+    noise = common.add_mutually_exclusive_group()
+    noise.add_argument("--quiet", "-q", action="store_true", help="only warnings and errors")
+    noise.add_argument("--verbose", "-v", action="store_true", help="debug output")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub.add_parser("validate", parents=[common], help="check a config, print every problem")
+    sub.add_parser("mesh", parents=[common], help="build (or reuse) the gmsh mesh")
+    solve = sub.add_parser("solve", parents=[common],
+                           help="forward solve with the config's initial growth")
+    solve.add_argument("--probe", action="append", default=[], metavar="X1,X2,X3",
+                       help="report the deformed position of this reference point; repeatable")
+    return parser
+
+
+def _validate(cfg, args) -> int:
+    log.info("%s: valid", args.config)
+    return EXIT_OK
+
+
+def _mesh(cfg, args) -> int:
+    from .geometry import load_domain
+
+    domain = load_domain(cfg)
+    log.info("mesh: %s", domain.path)
+    return EXIT_OK
+
+
+def _solve(cfg, args) -> int:
+    from .forward import solve_forward
+
+    _, status = solve_forward(cfg, args.out or cfg.output_dir, args.probe)
+    return status
+
+
+COMMANDS = {"validate": _validate, "mesh": _mesh, "solve": _solve}
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    from . import logs
+    from .config import ConfigError, load
+    from .forward import InputError
+
+    level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
+    logs.configure(level)
+    try:
+        cfg = load(args.config, args.overrides)
+        return COMMANDS[args.command](cfg, args)
+    except (ConfigError, InputError) as err:
+        if MPI.COMM_WORLD.rank == 0:
+            for line in str(err).splitlines():
+                print(f"error: {line}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+def entry() -> None:
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    entry()

@@ -1,0 +1,125 @@
+"""The dolfinx-version-specific calls, gathered so a newer dolfinx is a local change.
+
+Written against dolfinx 0.5.2 (Debian bookworm).  Everything else in the
+package goes through these helpers for meshes from gmsh, function spaces,
+point evaluation and XDMF output.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc  # noqa: F401  (registers dolfinx.fem.petsc)
+import dolfinx.geometry
+import dolfinx.io
+import ufl
+
+DOLFINX_VERSION = dolfinx.__version__
+
+
+def read_gmsh(path: Path, comm: MPI.Comm, gdim: int):
+    """(mesh, cell_tags, facet_tags) from a gmsh .msh file read on rank 0.
+
+    Debian's dolfinx 0.5.2 ``gmshio.read_from_msh`` returns an undefined name,
+    so the file is merged here and handed to ``model_to_mesh``.
+    """
+    import gmsh
+    from dolfinx.io import gmshio
+
+    if comm.rank == 0:
+        gmsh.initialize()
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.merge(str(path))
+    try:
+        return gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=gdim)
+    finally:
+        if comm.rank == 0:
+            gmsh.finalize()
+
+
+def vector_space(mesh, degree: int):
+    return dolfinx.fem.VectorFunctionSpace(mesh, ("CG", degree))
+
+
+def scalar_space(mesh, degree: int):
+    return dolfinx.fem.FunctionSpace(mesh, ("CG", degree))
+
+
+def interpolation_points(space) -> np.ndarray:
+    """Reference points at which ``space`` interpolates (for fem.Expression)."""
+    return space.element.interpolation_points()
+
+
+def interpolate_expression(target: dolfinx.fem.Function, expr: ufl.core.expr.Expr) -> None:
+    """target <- interpolation of a UFL expression (which may be a constant)."""
+    if expr.ufl_domain() is None:  # a constant: fem.Expression needs a mesh
+        values = np.array([float(c) for c in expr] if expr.ufl_shape else [float(expr)])
+        target.interpolate(lambda x: np.outer(values, np.ones(x.shape[1])))
+        return
+    compiled = dolfinx.fem.Expression(expr, interpolation_points(target.function_space))
+    target.interpolate(compiled)
+
+
+def owned_size(space) -> int:
+    """Number of owned (not ghost) scalar DOFs of ``space`` on this rank."""
+    index_map = space.dofmap.index_map
+    return index_map.size_local * space.dofmap.index_map_bs
+
+
+def global_size(space) -> int:
+    index_map = space.dofmap.index_map
+    return index_map.size_global * space.dofmap.index_map_bs
+
+
+def scatter_forward(u: dolfinx.fem.Function) -> None:
+    u.x.scatter_forward()
+
+
+def evaluate_at_points(u: dolfinx.fem.Function, points: np.ndarray) -> np.ndarray:
+    """Values of ``u`` at reference points (n, 3), gathered on every rank.
+
+    A point found on several ranks (on a partition boundary) is taken from the
+    lowest rank; a point outside the mesh gives NaN.
+    """
+    mesh = u.function_space.mesh
+    comm = mesh.comm
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    value_size = u.function_space.dofmap.index_map_bs
+    tree = dolfinx.geometry.BoundingBoxTree(mesh, mesh.topology.dim)
+    candidates = dolfinx.geometry.compute_collisions(tree, points)
+    colliding = dolfinx.geometry.compute_colliding_cells(mesh, candidates, points)
+    local = np.full((len(points), value_size), np.nan)
+    for i in range(len(points)):
+        cells = colliding.links(i)
+        if len(cells):
+            local[i] = u.eval(points[i], cells[:1])
+    gathered = comm.allgather(local)
+    result = np.full_like(local, np.nan)
+    for values in gathered:
+        fill = np.isnan(result[:, 0]) & ~np.isnan(values[:, 0])
+        result[fill] = values[fill]
+    return result
+
+
+def write_xdmf(path: Path, mesh, functions: list[dolfinx.fem.Function]) -> None:
+    """One XDMF file (+ .h5) with the mesh and P1 functions, readable by ParaView."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with dolfinx.io.XDMFFile(mesh.comm, str(path), "w") as xdmf:
+        xdmf.write_mesh(mesh)
+        for f in functions:
+            xdmf.write_function(f)
+
+
+def entities_on_boundary(mesh, facet_tags, tag: int) -> np.ndarray:
+    return facet_tags.indices[facet_tags.values == tag]
+
+
+def locate_vertex_dofs(space, point: np.ndarray, tol: float) -> np.ndarray:
+    """DOFs of ``space`` (a collapsed scalar subspace) at one point."""
+    return dolfinx.fem.locate_dofs_geometrical(
+        space, lambda x: np.linalg.norm(x - np.asarray(point).reshape(3, 1), axis=0) < tol)

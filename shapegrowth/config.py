@@ -1,0 +1,437 @@
+"""The YAML config: its schema, loading, ``--set`` overrides and validation.
+
+Every problem found is collected and raised together as one :class:`ConfigError`
+whose lines each name the key and what is allowed (``shapegrowth validate``).
+Expressions are parsed here (never executed) so a bad one is caught before any
+mesh is built.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .expressions import COORDINATES, CONSTANTS, FUNCTIONS, Expression, ExpressionError
+from .schema import build, field_paths, option
+
+GEOMETRY_PARAMS: dict[str, tuple[str, ...]] = {
+    "box": ("length", "width", "thickness"),
+    "tube": ("length", "radius", "thickness"),
+    "annulus": ("radius", "inner_radius", "thickness"),
+    "cylinder_shell": ("radius", "height", "thickness"),
+    "rectangle": ("side",),
+    "cube": ("side",),
+}
+BOUNDARIES: dict[str, tuple[str, ...]] = {
+    "box": ("x1_min", "x1_max", "x2_min", "x2_max", "x3_min", "x3_max"),
+    "tube": ("x1_min", "x1_max", "inner", "outer"),
+    "annulus": ("inner_rim", "outer_rim", "x3_min", "x3_max"),
+    "cylinder_shell": ("bottom_rim", "top_rim", "inner", "outer"),
+    "rectangle": ("x1_min", "x1_max", "x2_min", "x2_max"),
+    "cube": ("x1_min", "x1_max", "x2_min", "x2_max", "x3_min", "x3_max"),
+}
+LAYERED = ("box", "tube", "annulus", "cylinder_shell")  # bodies with a thin direction
+FRAMES = ("cartesian", "cylindrical", "tube", "free")
+PAPER_ANGLE_BOUNDS_3D = ((0.0, 2 * math.pi), (0.0, math.pi), (0.0, 2 * math.pi))
+PAPER_ANGLE_BOUNDS_2D = ((0.0, 2 * math.pi),)
+
+Scalar = float | str  # a number or an expression
+
+
+class ConfigError(ValueError):
+    """One or more problems in a config; ``problems`` holds one line each."""
+
+    def __init__(self, problems: list[str]):
+        self.problems = list(problems)
+        super().__init__("\n".join(self.problems))
+
+
+@dataclass(frozen=True)
+class GeometryConfig:
+    kind: str = option("shape of the reference body", choices=tuple(GEOMETRY_PARAMS))
+    length: float | None = option("box, tube: extent along X1, from X1 = 0", None, gt=0)
+    width: float | None = option("box: extent along X2, centred on X2 = 0", None, gt=0)
+    thickness: float | None = option(
+        "box: extent along X3 centred on X3 = 0; tube, annulus, cylinder_shell: wall", None, gt=0)
+    radius: float | None = option("tube, annulus, cylinder_shell: outer radius", None, gt=0)
+    inner_radius: float | None = option("annulus: inner radius", None, gt=0)
+    height: float | None = option("cylinder_shell: extent along X3, from X3 = 0", None, gt=0)
+    side: float | None = option("rectangle, cube: side length, centred at the origin", None, gt=0)
+
+
+@dataclass(frozen=True)
+class MeshConfig:
+    size: float = option("target element size", gt=0)
+    layers: int = option("elements through the wall or thickness (layered bodies)", 2, ge=1)
+    cache_dir: str = option("folder of the mesh cache", "meshes")
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    dim: int = option("3, or 2 for plane strain in the X1-X2 plane", 3, choices=(2, 3))
+    degree: int = option("polynomial degree of the displacement", 2, choices=(1, 2))
+    quadrature_degree: int | None = option(
+        "quadrature degree of the energy (default 2*degree; UFL's own estimate is far higher)",
+        None, ge=1, le=12)
+
+
+@dataclass(frozen=True)
+class MaterialConfig:
+    mu1: float = option("Mooney-Rivlin mu1 (5.1)", 0.5, ge=0)
+    mu2: float = option("Mooney-Rivlin mu2 (5.1)", 0.5, ge=0)
+    lmbda: float = option("volumetric modulus lambda (5.1)", 3.0, ge=0)
+
+
+@dataclass(frozen=True)
+class BoundaryConfig:
+    clamp: str = option("named boundary clamped in all directions, or 'rigid' "
+                        "(remove rigid motions only)")
+
+
+@dataclass(frozen=True)
+class LoadsConfig:
+    body_force: tuple[float, ...] | None = option("body force f per reference volume (2.7)", None)
+    traction: dict[str, tuple[float, ...]] = option(
+        "reference traction s0 (2.6) per named boundary, e.g. {x1_max: [0, 0, -1e-3]}", {})
+
+
+@dataclass(frozen=True)
+class EigenvaluesConfig:
+    initial: tuple[Scalar, ...] | None = option(
+        "initial lambda_i, each a number or an expression (default 1)", None)
+    bounds: tuple[float, float] = option("lower and upper bound of every lambda_i", (0.01, 12.0))
+    design: tuple[int, ...] | None = option(
+        "which eigenvalues the optimiser may change (default all)", None)
+    incompressible: bool = option("lambda_N = 1/(product of the others): give N-1 values", False)
+
+
+@dataclass(frozen=True)
+class AnglesConfig:
+    initial: tuple[Scalar, ...] | None = option(
+        "initial Rodrigues angles theta_i (frame: free), numbers or expressions (default 0)", None)
+    bounds: tuple[tuple[float, float], ...] | None = option(
+        "bounds per angle (default [0, 2pi], [0, pi], [0, 2pi]; 2D: [0, 2pi])", None)
+
+
+@dataclass(frozen=True)
+class GrowthConfig:
+    frame: str = option("eigenvector frame of C_g", "cartesian", choices=FRAMES)
+    eigenvalues: EigenvaluesConfig = option("eigenvalue fields lambda_i", EigenvaluesConfig())
+    angles: AnglesConfig = option("angle fields theta_i (frame: free)", AnglesConfig())
+    filter_length: float = option("Helmholtz filter length l (5.7); 0: no filter", 0.0, ge=0)
+    degree: int = option("polynomial degree of the growth fields", 1, choices=(1, 2))
+
+
+@dataclass(frozen=True)
+class TargetConfig:
+    map: tuple[Scalar, ...] | None = option("target map Phi_d(X), one expression per component",
+                                            None)
+    mesh: str | None = option("target body as a mesh file (gmsh .msh)", None)
+
+
+@dataclass(frozen=True)
+class HausdorffConfig:
+    phi: str = option("phi of (2.9): exp(-t) or rational 1/(1+t)", "exp",
+                      choices=("exp", "rational"))
+    alpha: float = option("alpha of (2.9) (sharpness; scales like 1/length)", 100.0, gt=0)
+    beta: float = option("beta of (2.9)", 2.0, gt=0)
+    gamma: float = option("gamma of (2.9)", 2.0, gt=0)
+
+
+@dataclass(frozen=True)
+class ComplexityConfig:
+    kind: str = option("complexity functional (Sect. 2.4)", "none",
+                       choices=("none", "C1", "C2", "C1bar", "C2bar"))
+    weight: float = option("alpha_1 of the complexity functional", 0.0, ge=0)
+    gradient_weight: float = option("alpha_2: weight of the gradient penalty on C_g", 0.0, ge=0)
+
+
+@dataclass(frozen=True)
+class ObjectiveConfig:
+    hausdorff: HausdorffConfig = option("smooth Hausdorff distance rho_H (2.9)", HausdorffConfig())
+    complexity: ComplexityConfig = option("complexity terms", ComplexityConfig())
+
+
+@dataclass(frozen=True)
+class OptimizerConfig:
+    algorithm: str = option("NLopt algorithm", "mma", choices=("mma", "slsqp"))
+    max_iterations: int = option("iteration limit", 100, ge=0)
+    ftol_rel: float = option("stop on relative objective change below this", 1.0e-6, ge=0)
+    xtol_rel: float = option("stop on relative design change below this", 0.0, ge=0)
+
+
+@dataclass(frozen=True)
+class ContinuationConfig:
+    initial_step: float = option("first growth step from rest, as a fraction of the full growth",
+                                 0.25, gt=0, le=1)
+    min_step: float = option("smallest step before the solve is declared failed", 1.0e-4,
+                             gt=0, le=1)
+    max_steps: int = option("most continuation steps in one solve", 500, ge=1)
+
+
+@dataclass(frozen=True)
+class SolverConfig:
+    linear: str = option("linear solver of the Newton steps", "mumps", choices=("mumps", "gamg"))
+    line_search: str = option("SNES line search (basic is plain Newton, fastest here)", "basic",
+                              choices=("basic", "bt", "l2", "cp"))
+    max_newton_iterations: int = option("Newton iterations per continuation step", 15, ge=1)
+    rtol: float = option("Newton relative residual tolerance", 1.0e-9, gt=0, lt=1)
+    atol: float = option("Newton absolute residual tolerance", 1.0e-10, gt=0)
+    continuation: ContinuationConfig = option("growth continuation and step cutting",
+                                              ContinuationConfig())
+    petsc_options: dict[str, str | float | int | bool] = option(
+        "extra PETSc options, keys with their prefix (state_, adjoint_, filter_)", {})
+
+
+@dataclass(frozen=True)
+class OutputConfig:
+    dir: str | None = option("output folder (default results/<name>)", None)
+    checkpoint_every: int = option("write checkpoint.h5 every this many iterations", 5, ge=1)
+
+
+@dataclass(frozen=True)
+class Config:
+    name: str = option("name of the run")
+    geometry: GeometryConfig = option("reference body")
+    mesh: MeshConfig = option("mesh generation")
+    boundary: BoundaryConfig = option("Dirichlet data")
+    parameters: dict[str, float] = option("extra named numbers usable in expressions", {})
+    model: ModelConfig = option("discretisation", ModelConfig())
+    material: MaterialConfig = option("material", MaterialConfig())
+    loads: LoadsConfig = option("external loads", LoadsConfig())
+    growth: GrowthConfig = option("growth tensor C_g (5.2)-(5.5)", GrowthConfig())
+    target: TargetConfig | None = option("target shape", None)
+    objective: ObjectiveConfig = option("objective", ObjectiveConfig())
+    optimizer: OptimizerConfig = option("optimiser", OptimizerConfig())
+    solver: SolverConfig = option("state solver", SolverConfig())
+    output: OutputConfig = option("outputs", OutputConfig())
+
+    # ---- derived views used across the package -------------------------------------------
+    @property
+    def dim(self) -> int:
+        return self.model.dim
+
+    @property
+    def expression_params(self) -> dict[str, float]:
+        """Numbers an expression may name: geometry parameters and ``parameters``."""
+        names = {k: getattr(self.geometry, k) for k in GEOMETRY_PARAMS[self.geometry.kind]}
+        names.update(self.parameters)
+        return {k: float(v) for k, v in names.items() if v is not None}
+
+    @property
+    def cylinder_axis(self) -> int:
+        """Axis of ``r, theta`` in expressions: X1 for a tube, X3 otherwise."""
+        return 1 if self.geometry.kind == "tube" else 3
+
+    @property
+    def output_dir(self) -> Path:
+        return Path(self.output.dir or f"results/{self.name}")
+
+    @property
+    def quadrature_degree(self) -> int:
+        return self.model.quadrature_degree or 2 * self.model.degree
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+def load(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Config:
+    """Read, override and validate a config file; raise :class:`ConfigError` on any problem."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError([f"config: file '{path}' not found"])
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(err, "problem", None) or str(err).splitlines()[0]
+        raise ConfigError([f"config: broken YAML in '{path}'{where}: {problem}"]) from None
+    if not isinstance(raw, dict):
+        raise ConfigError([f"config: '{path}' must hold a mapping of keys, not {type(raw).__name__}"])
+    return from_dict(raw, overrides)
+
+
+def from_dict(raw: dict[str, Any], overrides: list[str] | tuple[str, ...] = ()) -> Config:
+    errors: list[str] = []
+    raw = apply_overrides(raw, overrides, errors)
+    cfg = build(Config, raw, "", errors)
+    if cfg is not None:
+        cfg = _resolve_and_check(cfg, errors)
+    if errors:
+        raise ConfigError(errors)
+    return cfg
+
+
+_FREE_KEYS = ("parameters", "loads.traction", "solver.petsc_options")
+
+
+def apply_overrides(raw: dict[str, Any], overrides: list[str] | tuple[str, ...],
+                    errors: list[str]) -> dict[str, Any]:
+    """Apply ``--set key.sub=value`` items (YAML-typed values) to a copy of ``raw``."""
+    import copy
+
+    raw = copy.deepcopy(raw)
+    known = field_paths(Config)
+    for item in overrides:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            errors.append(f"--set {item}: expected KEY=VALUE, e.g. --set mesh.size=0.05")
+            continue
+        if key not in known and not any(key.startswith(free + ".") for free in _FREE_KEYS):
+            import difflib
+
+            close = difflib.get_close_matches(key, known, n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            errors.append(f"--set {key}: unknown key{hint}")
+            continue
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            errors.append(f"--set {key}: value {text!r} is not valid YAML")
+            continue
+        node = raw
+        parts = key.split(".")
+        for part in parts[:-1]:
+            if not isinstance(node.get(part), dict):
+                node[part] = {}
+            node = node[part]
+        node[parts[-1]] = value
+    return raw
+
+
+def _resolve_and_check(cfg: Config, errors: list[str]) -> Config:
+    """Cross-field rules and dimension-dependent defaults."""
+    geo, dim = cfg.geometry, cfg.model.dim
+    kind = geo.kind
+    for name in ("length", "width", "thickness", "radius", "inner_radius", "height", "side"):
+        given = getattr(geo, name) is not None
+        if name in GEOMETRY_PARAMS[kind] and not given:
+            errors.append(f"geometry.{name}: required for kind '{kind}'")
+        elif name not in GEOMETRY_PARAMS[kind] and given:
+            errors.append(f"geometry.{name}: not used by kind '{kind}' "
+                          f"(it takes {', '.join(GEOMETRY_PARAMS[kind])})")
+    if kind == "annulus" and geo.radius and geo.inner_radius and geo.inner_radius >= geo.radius:
+        errors.append("geometry.inner_radius: must be smaller than geometry.radius")
+    if kind in ("tube", "cylinder_shell") and geo.radius and geo.thickness \
+            and geo.thickness >= geo.radius:
+        errors.append("geometry.thickness: the wall must be thinner than geometry.radius")
+    if (kind == "rectangle") != (dim == 2):
+        errors.append(f"model.dim: {dim} does not fit geometry.kind '{kind}' "
+                      "(rectangle is the 2D plane-strain body; every other kind is 3D)")
+
+    bc = cfg.boundary.clamp
+    allowed = (*BOUNDARIES[kind], "rigid")
+    if bc not in allowed:
+        errors.append(f"boundary.clamp: '{bc}' is not a boundary of a {kind} "
+                      f"(allowed: {', '.join(allowed)})")
+
+    loads = cfg.loads
+    body_force = loads.body_force if loads.body_force is not None else (0.0,) * dim
+    if len(body_force) != dim:
+        errors.append(f"loads.body_force: give {dim} components")
+    for name, vec in loads.traction.items():
+        if name not in BOUNDARIES[kind]:
+            errors.append(f"loads.traction.{name}: not a boundary of a {kind} "
+                          f"(allowed: {', '.join(BOUNDARIES[kind])})")
+        if vec is not None and len(vec) != dim:
+            errors.append(f"loads.traction.{name}: give {dim} components")
+
+    growth = _check_growth(cfg, errors)
+    _check_names(cfg, errors)
+    _check_expressions(cfg, growth, errors)
+    if cfg.target is not None:
+        _check_target(cfg, errors)
+    if cfg.solver.continuation.min_step > cfg.solver.continuation.initial_step:
+        errors.append("solver.continuation.min_step: must not exceed initial_step")
+    for key in cfg.solver.petsc_options:
+        if not key.startswith(("state_", "adjoint_", "filter_")):
+            errors.append(f"solver.petsc_options.{key}: keys start with state_, adjoint_ or filter_")
+
+    return dataclasses.replace(cfg, growth=growth,
+                               loads=dataclasses.replace(loads, body_force=tuple(body_force)))
+
+
+def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:
+    g, dim = cfg.growth, cfg.model.dim
+    eig = g.eigenvalues
+    n_eig = dim - 1 if eig.incompressible else dim
+    initial = eig.initial if eig.initial is not None else (1.0,) * n_eig
+    if len(initial) != n_eig:
+        extra = f" (incompressible: lambda_{dim} is derived)" if eig.incompressible else ""
+        errors.append(f"growth.eigenvalues.initial: give {n_eig} values{extra}, got {len(initial)}")
+    lo, hi = eig.bounds
+    if not 0 < lo < hi:
+        errors.append(f"growth.eigenvalues.bounds: need 0 < lower < upper, got [{lo}, {hi}]")
+    for i, value in enumerate(initial):
+        if isinstance(value, float) and not lo <= value <= hi:
+            errors.append(f"growth.eigenvalues.initial[{i}]: {value} is outside the bounds "
+                          f"[{lo}, {hi}]")
+    design = eig.design if eig.design is not None else tuple(range(1, n_eig + 1))
+    bad = [d for d in design if not 1 <= d <= n_eig]
+    if bad or len(set(design)) != len(design):
+        errors.append(f"growth.eigenvalues.design: a subset of 1..{n_eig} without repeats, "
+                      f"got {list(design)}")
+
+    if g.frame == "tube" and dim == 2:
+        errors.append("growth.frame: 'tube' is a 3D frame (2D allows cartesian, cylindrical, free)")
+    n_ang = 3 if dim == 3 else 1
+    ang = g.angles
+    a_init = ang.initial if ang.initial is not None else (0.0,) * n_ang
+    a_bounds = ang.bounds if ang.bounds is not None else (
+        PAPER_ANGLE_BOUNDS_3D if dim == 3 else PAPER_ANGLE_BOUNDS_2D)
+    if len(a_init) != n_ang:
+        errors.append(f"growth.angles.initial: give {n_ang} angle(s) in {dim}D, got {len(a_init)}")
+    if len(a_bounds) != n_ang:
+        errors.append(f"growth.angles.bounds: give {n_ang} [lower, upper] pair(s) in {dim}D")
+    for i, (a_lo, a_hi) in enumerate(a_bounds):
+        if not a_lo < a_hi:
+            errors.append(f"growth.angles.bounds[{i}]: lower must be below upper, "
+                          f"got [{a_lo}, {a_hi}]")
+        elif i < len(a_init) and isinstance(a_init[i], float) and not a_lo <= a_init[i] <= a_hi:
+            errors.append(f"growth.angles.initial[{i}]: {a_init[i]} is outside its bounds "
+                          f"[{a_lo}, {a_hi}]")
+    if g.frame != "free" and ang.initial is not None and any(
+            not (isinstance(a, float) and a == 0.0) for a in ang.initial):
+        errors.append("growth.angles.initial: angles act only with frame: free")
+    return dataclasses.replace(
+        g, eigenvalues=dataclasses.replace(eig, initial=tuple(initial), design=tuple(design)),
+        angles=dataclasses.replace(ang, initial=tuple(a_init), bounds=tuple(a_bounds)))
+
+
+def _check_names(cfg: Config, errors: list[str]) -> None:
+    reserved = set(COORDINATES) | set(CONSTANTS) | set(FUNCTIONS)
+    for name in cfg.parameters:
+        if name in reserved or not name.isidentifier():
+            errors.append(f"parameters.{name}: not usable as a name (reserved or not an identifier)")
+
+
+def _check_expressions(cfg: Config, growth: GrowthConfig, errors: list[str]) -> None:
+    names = [*COORDINATES, *cfg.expression_params]
+    groups = [("growth.eigenvalues.initial", growth.eigenvalues.initial),
+              ("growth.angles.initial", growth.angles.initial)]
+    if cfg.target is not None and cfg.target.map is not None:
+        groups.append(("target.map", cfg.target.map))
+    for key, values in groups:
+        for i, value in enumerate(values or ()):
+            if isinstance(value, str):
+                try:
+                    Expression(value, names)
+                except ExpressionError as err:
+                    errors.append(f"{key}[{i}]: {err}")
+
+
+def _check_target(cfg: Config, errors: list[str]) -> None:
+    target = cfg.target
+    if (target.map is None) == (target.mesh is None):
+        errors.append("target: give exactly one of 'map' (expressions) or 'mesh' (a file)")
+    if target.map is not None and len(target.map) != cfg.model.dim:
+        errors.append(f"target.map: give {cfg.model.dim} components")
+    if target.mesh is not None and not Path(target.mesh).is_file():
+        errors.append(f"target.mesh: file '{target.mesh}' not found")

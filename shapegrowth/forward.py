@@ -1,0 +1,150 @@
+"""The forward model put together: mesh, growth fields and state for one config.
+
+``shapegrowth solve`` calls :func:`solve_forward`, which solves the state for
+the config's initial growth and writes summary.json and fields.xdmf.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+
+import dolfinx.fem
+import ufl
+
+from . import __version__, compat, io
+from .config import Config
+from .geometry import Domain, load_domain
+from .growth import Growth
+from .state import SolveReport, StateProblem
+from .timing import Timer
+
+log = logging.getLogger(__name__)
+
+
+class InputError(ValueError):
+    """Bad input outside the config (an option, a probe); exit status 2."""
+
+
+@dataclass
+class ForwardModel:
+    cfg: Config
+    domain: Domain
+    growth: Growth
+    state: StateProblem
+
+    @classmethod
+    def build(cls, cfg: Config, comm: MPI.Comm = MPI.COMM_WORLD) -> "ForwardModel":
+        domain = load_domain(cfg, comm)
+        growth = Growth.from_config(domain.mesh, cfg)
+        state = StateProblem(domain, cfg, growth)
+        return cls(cfg, domain, growth, state)
+
+    @property
+    def comm(self) -> MPI.Comm:
+        return self.domain.mesh.comm
+
+    def integrate(self, integrand: ufl.core.expr.Expr) -> float:
+        value = dolfinx.fem.assemble_scalar(dolfinx.fem.form(integrand * self.state.dx))
+        return self.comm.allreduce(value, MPI.SUM)
+
+    def volumes(self) -> tuple[float, float]:
+        """Reference and deformed volume (area in 2D)."""
+        one = dolfinx.fem.Constant(self.domain.mesh, 1.0)
+        deformed = ufl.det(self.state.deformation_gradient())
+        return self.integrate(one), self.integrate(deformed)
+
+    def stress_norm(self) -> float:
+        """L2 norm of the first Piola-Kirchhoff stress over the reference body."""
+        P = self.state.first_piola()
+        return float(np.sqrt(max(self.integrate(ufl.inner(P, P)), 0.0)))
+
+    def design_dofs(self) -> int:
+        g = self.cfg.growth
+        n_fields = len(g.eigenvalues.design) + (len(self.growth.angles) if g.frame == "free" else 0)
+        return n_fields * compat.global_size(self.growth.space)
+
+
+def parse_probes(texts: list[str], dim: int) -> np.ndarray:
+    points = []
+    for text in texts:
+        try:
+            values = [float(v) for v in text.split(",")]
+        except ValueError:
+            values = []
+        if len(values) not in (dim, 3) or (len(values) == 3 and dim == 2 and values[2] != 0):
+            raise InputError(f"--probe {text}: expected {dim} numbers x1,...,x{dim} "
+                             "separated by commas")
+        points.append(values + [0.0] * (3 - len(values)))
+    return np.array(points, dtype=float).reshape(-1, 3)
+
+
+def solve_forward(cfg: Config, out: Path, probe_texts: list[str] = ()) -> tuple[dict[str, Any], int]:
+    """Forward solve with the config's initial growth; returns (summary, exit status)."""
+    timer = Timer()
+    probes = parse_probes(list(probe_texts), cfg.dim)
+    with timer("forward"):
+        model = ForwardModel.build(cfg)
+    if len(probes):
+        outside = np.isnan(compat.evaluate_at_points(model.state.u, probes)[:, 0])
+        if outside.any():
+            bad = ",".join(f"{v:g}" for v in probes[np.argmax(outside)][:cfg.dim])
+            raise InputError(f"--probe {bad}: the point is outside the reference body")
+    log.info("solving %s: %d state DOFs, growth %s", cfg.name,
+             compat.global_size(model.state.V), cfg.growth.frame)
+    with timer("forward"):
+        report = model.state.solve()
+    status = "converged" if report.converged else f"failed: {report.reason}"
+    log.info("%s after %d load steps, %d Newton iterations (%.2f s)", status, report.steps,
+             report.newton_iterations, report.seconds)
+
+    vol_ref, vol_def = model.volumes()
+    deformed = []
+    if len(probes):
+        u = compat.evaluate_at_points(model.state.u, probes)
+        deformed = probes[:, :cfg.dim] + u
+    with timer("io"):
+        io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied)
+    summary = _summary(cfg, model, report, status, timer)
+    summary.update({
+        "volume_reference": vol_ref,
+        "volume_deformed": vol_def,
+        "stress_l2": model.stress_norm(),
+        "probes": [{"reference": p[:cfg.dim], "deformed": d} for p, d in zip(probes, deformed)],
+    })
+    io.write_json(out / "summary.json", summary)
+    log.info("wrote %s and %s", out / "summary.json", out / "fields.xdmf")
+    return summary, 0 if report.converged else 1
+
+
+def _summary(cfg: Config, model: ForwardModel, report: SolveReport, status: str,
+             timer: Timer) -> dict[str, Any]:
+    return {
+        "name": cfg.name,
+        "status": status,
+        "iterations": 0,
+        "objective_initial": None,
+        "objective_final": None,
+        "rho_H_initial": None,
+        "rho_H_final": None,
+        "hausdorff_initial": None,
+        "hausdorff_final": None,
+        "target_size": None,
+        "wall_time_s": timer.wall,
+        "time_split": timer.split(),
+        "newton_iterations_total": report.newton_iterations,
+        "continuation_steps": report.steps,
+        "failed_steps": report.failed_steps,
+        "growth_reached": report.reached,
+        "dofs": {"state": compat.global_size(model.state.V), "design": model.design_dofs()},
+        "mpi_size": model.comm.size,
+        "version": __version__,
+        "dolfinx_version": compat.DOLFINX_VERSION,
+        "mesh": str(model.domain.path),
+        "config": cfg.to_dict(),
+    }

@@ -1,0 +1,44 @@
+"""Shared fixtures. Tests marked ``mpi`` are collective: ``make test`` runs them
+again under ``mpirun -n 2``, where every rank must call them in the same order."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from mpi4py import MPI
+
+ROOT = Path(__file__).resolve().parent.parent
+CONFIGS = ROOT / "configs"
+BIN = Path(sys.executable).parent
+
+
+@pytest.fixture
+def shared_tmp(tmp_path: Path) -> Path:
+    """A temporary folder that every MPI rank sees (rank 0's)."""
+    return Path(MPI.COMM_WORLD.bcast(str(tmp_path), root=0))
+
+
+def run_cli(*args: str) -> int:
+    """Run the CLI in this process (collectively under MPI); returns the exit status."""
+    from shapegrowth.cli import main
+
+    return main([str(a) for a in args])
+
+
+def read_json(path: Path) -> dict:
+    return json.loads(Path(path).read_text())
+
+
+def run_subprocess(args: list[str], ranks: int = 1, **kwargs) -> subprocess.CompletedProcess:
+    """Run the installed console script, optionally under mpirun."""
+    cmd = [str(BIN / "shapegrowth"), *map(str, args)]
+    if ranks > 1:
+        cmd = ["mpirun", "-n", str(ranks), *cmd]
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMPI_MCA_rmaps_base_oversubscribe="1")
+    return subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, **kwargs)

@@ -1,0 +1,127 @@
+"""Config validation: every problem reported at once, one line each naming the key."""
+
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from conftest import CONFIGS, run_cli, run_subprocess
+from shapegrowth.config import ConfigError, from_dict, load
+
+BASE = """\
+name: t
+geometry: {kind: box, length: 1.0, width: 0.1, thickness: 0.02}
+mesh: {size: 0.05, layers: 1}
+boundary: {clamp: x1_min}
+"""
+
+
+def write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "c.yaml"
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+def problems(tmp_path: Path, text: str, overrides=()) -> list[str]:
+    with pytest.raises(ConfigError) as err:
+        load(write(tmp_path, text), list(overrides))
+    return err.value.problems
+
+
+def test_minimal_config_gets_documented_defaults(tmp_path):
+    cfg = load(write(tmp_path, BASE))
+    assert cfg.model.degree == 2 and cfg.quadrature_degree == 4
+    assert cfg.growth.eigenvalues.initial == (1.0, 1.0, 1.0)
+    assert cfg.growth.eigenvalues.bounds == (0.01, 12.0)
+    assert cfg.growth.eigenvalues.design == (1, 2, 3)
+    assert cfg.loads.body_force == (0.0, 0.0, 0.0)
+    assert cfg.output_dir == Path("results/t")
+
+
+@pytest.mark.parametrize("extra, key, words", [
+    ("geometry: {kind: box, lenght: 1.0, width: 0.1, thickness: 0.02}", "geometry.lenght",
+     "did you mean 'length'"),
+    ("geometry: {kind: box, length: -1.0, width: 0.1, thickness: 0.02}", "geometry.length",
+     "must be > 0"),
+    ("growth: {eigenvalues: {bounds: [12.0, 0.01]}}", "growth.eigenvalues.bounds", "lower < upper"),
+    ("growth: {frame: spherical}", "growth.frame", "allowed: cartesian"),
+    ("mesh: {size: fine}", "mesh.size", "expected a number"),
+    ("growth: {eigenvalues: {initial: [20.0, 1, 1]}}", "growth.eigenvalues.initial[0]",
+     "outside the bounds"),
+    ("growth: {eigenvalues: {initial: [\"__import__('os').system('touch /tmp/x')\", 1, 1]}}",
+     "growth.eigenvalues.initial[0]", "may be called"),
+    ("boundary: {clamp: inner_rim}", "boundary.clamp", "allowed: x1_min"),
+    ("model: {dim: 2}", "model.dim", "rectangle"),
+    ("loads: {traction: {x9_max: [0, 0, 1]}}", "loads.traction.x9_max", "not a boundary"),
+])
+def test_each_bad_input_names_its_key(tmp_path, extra, key, words):
+    text = BASE
+    section = extra.split(":")[0]
+    if section + ":" in text:
+        text = "\n".join(line for line in text.splitlines() if not line.startswith(section + ":"))
+    lines = problems(tmp_path, text + "\n" + extra + "\n")
+    assert any(line.startswith(key + ":") and words in line for line in lines), lines
+
+
+def test_all_problems_at_once(tmp_path):
+    lines = problems(tmp_path, """\
+        name: t
+        geometry: {kind: box, length: -1, width: 0.1}
+        mesh: {size: 0}
+        boundary: {clamp: nowhere}
+        growth: {frame: spherical}
+        """)
+    keys = {line.split(":")[0] for line in lines}
+    assert {"geometry.length", "geometry.thickness", "mesh.size", "boundary.clamp",
+            "growth.frame"} <= keys
+
+
+def test_set_overrides_and_unknown_set_key(tmp_path):
+    path = write(tmp_path, BASE)
+    cfg = load(path, ["mesh.size=0.1", "growth.eigenvalues.initial=[2, 1, 1]",
+                      "parameters.kappa=3"])
+    assert cfg.mesh.size == 0.1 and cfg.growth.eigenvalues.initial == (2.0, 1.0, 1.0)
+    assert cfg.parameters == {"kappa": 3.0}
+    with pytest.raises(ConfigError) as err:
+        load(path, ["mesh.sise=0.1"])
+    assert err.value.problems == ["--set mesh.sise: unknown key (did you mean 'mesh.size'?)"]
+
+
+def test_broken_yaml_and_missing_file(tmp_path):
+    lines = problems(tmp_path, "name: [unclosed\n")
+    assert len(lines) == 1 and lines[0].startswith("config: broken YAML") and "line" in lines[0]
+    with pytest.raises(ConfigError) as err:
+        load(tmp_path / "nope.yaml")
+    assert err.value.problems == [f"config: file '{tmp_path / 'nope.yaml'}' not found"]
+
+
+def test_incompressible_takes_one_value_less():
+    raw = {"name": "t", "geometry": {"kind": "cube", "side": 1.0}, "mesh": {"size": 0.5},
+           "boundary": {"clamp": "rigid"},
+           "growth": {"eigenvalues": {"incompressible": True, "initial": [2.0, 0.5]}}}
+    assert from_dict(raw).growth.eigenvalues.design == (1, 2)
+    raw["growth"]["eigenvalues"]["initial"] = [2.0, 0.5, 1.0]
+    with pytest.raises(ConfigError, match="give 2 values"):
+        from_dict(raw)
+
+
+def test_cli_validate_exit_codes(tmp_path, capsys):
+    assert run_cli("validate", CONFIGS / "beam_bend.yaml") == 0
+    bad = write(tmp_path, BASE.replace("size: 0.05", "size: -1"))
+    assert run_cli("validate", bad) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["error: mesh.size: -1.0 must be > 0"]
+
+
+def test_cli_bad_input_prints_no_traceback(tmp_path):
+    marker = tmp_path / "hacked"
+    bad = write(tmp_path, BASE + f"growth: {{eigenvalues: {{initial: "
+                                 f"[\"__import__('os').system('touch {marker}')\", 1, 1]}}}}\n")
+    result = run_subprocess(["solve", bad])
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    assert result.stderr.strip().startswith("error: growth.eigenvalues.initial[0]:")
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert not marker.exists()

@@ -1,0 +1,111 @@
+"""The growth tensor (5.2)-(5.5): Rodrigues frame, fixed frames, incompressibility."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+import dolfinx.fem
+import dolfinx.mesh
+import ufl
+from shapegrowth import closed_forms as cf
+from shapegrowth.growth import Growth, frame_vectors, rodrigues
+
+RNG = np.random.default_rng(7)
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    return dolfinx.mesh.create_unit_cube(MPI.COMM_SELF, 1, 1, 1)
+
+
+def at_point(mesh, expr, point=(0.2, 0.3, 0.1)):
+    """Value of a UFL expression at one point of the first cell."""
+    if expr.ufl_domain() is None:  # a constant: fem.Expression needs a mesh
+        return np.vectorize(float, otypes=[float])(np.array(ufl.as_ufl(expr).ufl_shape and [
+            expr[idx] for idx in np.ndindex(expr.ufl_shape)])).reshape(expr.ufl_shape)
+    compiled = dolfinx.fem.Expression(expr, np.array([point]))
+    return compiled.eval(np.array([0], dtype=np.int32)).reshape(expr.ufl_shape)
+
+
+def test_rodrigues_matches_5_5_and_is_a_rotation(mesh):
+    theta = dolfinx.fem.Constant(mesh, np.zeros(3))
+    V_expr = rodrigues(theta[0], theta[1], theta[2])
+    compiled = dolfinx.fem.Expression(V_expr, np.array([[0.2, 0.2, 0.2]]))
+    for _ in range(5):
+        t = RNG.uniform([0, 0, 0], [2 * np.pi, np.pi, 2 * np.pi])
+        theta.value[:] = t
+        V = compiled.eval(np.array([0], dtype=np.int32)).reshape(3, 3)
+        assert np.allclose(V.T, cf.rodrigues_vectors(*t), atol=1e-14)  # columns are v_i
+        assert np.allclose(V.T @ V, np.eye(3), atol=1e-14)
+        assert np.linalg.det(V) == pytest.approx(1.0, abs=1e-14)
+
+
+def test_rodrigues_axis_is_fixed(mesh):
+    """V k = k: the rotation is about k(theta1, theta2) of (5.4)."""
+    t = np.array([0.7, 1.1, 2.3])
+    V = at_point(mesh, rodrigues(*map(float, t)))
+    k = np.array([np.cos(t[0]) * np.sin(t[1]), np.sin(t[0]) * np.sin(t[1]), np.cos(t[1])])
+    assert np.allclose(V @ k, k, atol=1e-14)
+
+
+@pytest.mark.parametrize("frame", ["cartesian", "cylindrical", "tube"])
+def test_fixed_frames_are_orthonormal_and_as_printed(mesh, frame):
+    x = ufl.SpatialCoordinate(mesh)
+    p = at_point(mesh, x)  # the physical point behind the reference point used
+    vs = np.array([at_point(mesh, v) for v in frame_vectors(frame, x, 3)])
+    assert np.allclose(vs @ vs.T, np.eye(3), atol=1e-14)
+    if frame == "cylindrical":
+        th = np.arctan2(p[1], p[0])
+        assert np.allclose(vs[0], [np.cos(th), np.sin(th), 0], atol=1e-14)
+        assert np.allclose(vs[1], [-np.sin(th), np.cos(th), 0], atol=1e-14)
+    if frame == "tube":
+        th = np.arctan2(p[2], p[1])
+        assert np.allclose(vs[1], [0, -np.sin(th), np.cos(th)], atol=1e-14)
+        assert np.allclose(vs[2], [0, np.cos(th), np.sin(th)], atol=1e-14)
+
+
+@pytest.mark.parametrize("frame", ["cylindrical", "free"])
+def test_tensor_has_the_eigenpairs(mesh, frame):
+    growth = Growth(mesh, 3, frame)
+    lam = [1.7, 0.4, 2.5]
+    for f, value in zip(growth.eigenvalues, lam):
+        f.x.array[:] = value
+    for f, value in zip(growth.angles, [0.4, 1.2, 2.0]):
+        f.x.array[:] = value
+    Cg = at_point(mesh, growth.tensor())
+    vs = [at_point(mesh, v) for v in growth.vectors()]
+    for value, v in zip(lam, vs):
+        assert np.allclose(Cg @ v, value * v, atol=1e-13)
+
+
+def test_incompressible_growth_has_unit_determinant(mesh):
+    growth = Growth(mesh, 3, "free", incompressible=True)
+    assert len(growth.eigenvalues) == 2
+    growth.eigenvalues[0].x.array[:] = 3.0
+    growth.eigenvalues[1].x.array[:] = 0.25
+    for f, value in zip(growth.angles, [1.0, 0.5, 0.3]):
+        f.x.array[:] = value
+    Cg = at_point(mesh, growth.tensor())
+    assert np.linalg.det(Cg) == pytest.approx(1.0, rel=1e-13)
+    assert sorted(np.linalg.eigvalsh(Cg)) == pytest.approx(sorted([3.0, 0.25, 4 / 3]), rel=1e-12)
+
+
+def test_plane_free_frame_rotates_in_plane():
+    mesh = dolfinx.mesh.create_unit_square(MPI.COMM_SELF, 1, 1)
+    growth = Growth(mesh, 2, "free")
+    growth.eigenvalues[0].x.array[:] = 2.0
+    growth.angles[0].x.array[:] = np.pi / 6
+    Cg = at_point(mesh, growth.tensor(), (0.3, 0.3))
+    v1 = np.array([np.cos(np.pi / 6), np.sin(np.pi / 6)])
+    assert np.allclose(Cg @ v1, 2.0 * v1, atol=1e-14)
+
+
+def test_blend_is_geometric_in_eigenvalues_and_linear_in_angles(mesh):
+    growth = Growth(mesh, 3, "free")
+    start = [np.full(2, 1.0)] * 3 + [np.zeros(2)] * 3
+    end = [np.full(2, 4.0)] * 3 + [np.full(2, 1.0)] * 3
+    half = growth.blend(start, end, 0.5)
+    assert half[0] == pytest.approx([2.0, 2.0])
+    assert half[3] == pytest.approx([0.5, 0.5])
