@@ -1,11 +1,13 @@
 """Dirichlet data: a clamped named boundary, or the removal of rigid motions only.
 
-``clamp: rigid`` pins three vertices in the 3-2-1 pattern: one vertex near the
-centre of the body in every direction, one near the X1 end of the centre line
-in X2 and X3, one near the X2 end in X3 (2D: the first in both directions, the
-second in X2).  These six (three in 2D) constraints are statically determinate:
-they stop the rigid motions and, under self-equilibrated loading such as growth,
-carry no reaction, so they do not constrain the deformation.
+``clamp: rigid`` pins three vertices in the 3-2-1 pattern: A, the vertex nearest
+the centre of the body, in every direction; B, on the X1-line through A, in X2
+and X3; C, in A's X3-plane off towards +X2, in X3 (2D: A in both directions, B
+in X2).  These six (three in 2D) constraints are statically determinate: they
+stop the rigid motions and, under self-equilibrated loading such as growth,
+carry no reaction, so they do not constrain the deformation.  Where the mesh has
+no vertex exactly on that line or plane, growth alone is still reaction-free
+(the body can rotate) but dead loads would see a small reaction.
 """
 
 from __future__ import annotations
@@ -41,29 +43,41 @@ def body_box(mesh) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def nearest_vertex(mesh, point: np.ndarray) -> np.ndarray:
-    """Coordinates of the mesh vertex nearest to ``point``, the same on every rank and
-    for every partition (ties broken by the coordinates themselves)."""
+def best_vertex(mesh, key) -> np.ndarray:
+    """Coordinates of the mesh vertex with the smallest ``key(x) -> (n, k)`` row
+    (compared lexicographically), the same on every rank and for every partition."""
     x = mesh.geometry.x
     if len(x):
-        d = np.linalg.norm(x - point, axis=1)
-        i = np.lexsort((x[:, 2], x[:, 1], x[:, 0], np.round(d, 12)))[0]
-        local = (round(float(d[i]), 12), tuple(x[i]))
+        keys = np.round(key(x), 12)
+        order = np.lexsort((x[:, 2], x[:, 1], x[:, 0], *keys.T[::-1]))
+        local = (tuple(keys[order[0]]), tuple(x[order[0]]))
     else:
-        local = (np.inf, (0.0, 0.0, 0.0))
+        local = ((np.inf,), (0.0, 0.0, 0.0))
     best = min(mesh.comm.allgather(local))
     return np.array(best[1])
 
 
 def _rigid_pins(V, mesh) -> list:
+    """Pins A (all directions), B (X2, X3), C (X3) with B on the X1-line through A
+    and C in A's X3-plane when the mesh has such vertices, so that any homogeneous
+    deformation about A leaves the pins without reaction."""
     gdim = mesh.geometry.dim
     lo, hi = body_box(mesh)
     centre, extent = (lo + hi) / 2, hi - lo
-    a = nearest_vertex(mesh, centre)
-    b = nearest_vertex(mesh, centre + 0.45 * extent[0] * np.eye(3)[0])
+    a = best_vertex(mesh, lambda x: np.linalg.norm(x - centre, axis=1)[:, None])
+
+    def off_axis(x, axis, far):
+        """Rows (misalignment, distance from the ideal spot) for a partner of A."""
+        d = x - a
+        misaligned = np.linalg.norm(np.delete(d, [axis] + ([] if gdim == 3 else [2]), axis=1)
+                                    if far else d[:, [2]], axis=1)
+        too_close = d[:, axis] < 0.25 * extent[axis]
+        return np.column_stack([too_close, misaligned, np.abs(d[:, axis] - 0.45 * extent[axis])])
+
+    b = best_vertex(mesh, lambda x: off_axis(x, 0, far=True))
     pins = [(a, range(gdim)), (b, range(1, gdim))]
     if gdim == 3:
-        c = nearest_vertex(mesh, centre + 0.45 * extent[1] * np.eye(3)[1])
+        c = best_vertex(mesh, lambda x: off_axis(x, 1, far=False))
         pins.append((c, [2]))
     tol = 1e-10 * max(float(extent.max()), 1.0)
     bcs = []

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import re
 import sys
 from pathlib import Path
 
@@ -68,8 +69,23 @@ def _solve(cfg, args) -> int:
 COMMANDS = {"validate": _validate, "mesh": _mesh, "solve": _solve}
 
 
+def _join_negative_values(argv: list[str]) -> list[str]:
+    """``--probe -0.5,0,0`` -> ``--probe=-0.5,0,0`` (argparse takes -0.5,... for an option)."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        if argv[i] == "--probe" and i + 1 < len(argv) and re.match(r"-[\d.]", argv[i + 1]):
+            out.append(f"--probe={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(argv[i])
+        i += 1
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = _parser().parse_args(_join_negative_values(argv))
     from . import logs
     from .config import ConfigError, load
     from .forward import InputError

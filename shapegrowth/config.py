@@ -168,7 +168,7 @@ class OptimizerConfig:
 @dataclass(frozen=True)
 class ContinuationConfig:
     initial_step: float = option("first growth step from rest, as a fraction of the full growth",
-                                 0.25, gt=0, le=1)
+                                 0.1, gt=0, le=1)
     min_step: float = option("smallest step before the solve is declared failed", 1.0e-4,
                              gt=0, le=1)
     max_steps: int = option("most continuation steps in one solve", 500, ge=1)

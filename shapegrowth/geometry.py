@@ -11,7 +11,10 @@ Placement (CONTRACT.md):
 * ``annulus``: R1 <= r <= R2 in the X1-X2 plane, X3 in [-t/2, t/2].
 * ``cylinder_shell``: axis X3, outer radius R, wall t, X3 in [0, height];
   structured ring swept along X3.
-* ``rectangle`` (2D) and ``cube``: side s, centred at the origin, unstructured.
+* ``rectangle`` (2D) and ``cube``: side s, centred at the origin; structured
+  (criss-cross triangles, hexahedra split in six tetrahedra) with an even number
+  of divisions about s/h, so the centre and the axes through it carry vertices
+  (``clamp: rigid`` pins them; see boundary.py).
 
 Every boundary listed in :data:`shapegrowth.config.BOUNDARIES` is a physical
 group; its tag is its position in that list plus one.
@@ -34,7 +37,7 @@ from .config import BOUNDARIES, GEOMETRY_PARAMS, LAYERED, Config
 
 log = logging.getLogger(__name__)
 
-BUILDER_VERSION = 1  # bump when a builder changes, so cached meshes are rebuilt
+BUILDER_VERSION = 3  # bump when a builder changes, so cached meshes are rebuilt
 
 
 @dataclass
@@ -194,18 +197,40 @@ def _cylinder_shell(gmsh, cfg: Config, h: float) -> None:
     gmsh.model.geo.synchronize()
 
 
+def _even_count(extent: float, h: float) -> int:
+    """Divisions of a side: about extent/h, even so that the centre is a vertex."""
+    return 2 * max(1, int(round(extent / h / 2)))
+
+
+def _structured(gmsh, n: int) -> None:
+    """Transfinite mesh of every entity, n divisions per edge.
+
+    A square gets criss-cross triangles; a cube's faces get the diagonals of
+    gmsh's split of each hexahedron into six tetrahedra ("Left"), the only
+    arrangement whose face triangles are faces of the tetrahedra.
+    """
+    mesh = gmsh.model.mesh
+    solid = bool(gmsh.model.getEntities(3))
+    for _, tag in gmsh.model.getEntities(1):
+        mesh.setTransfiniteCurve(tag, n + 1)
+    for _, tag in gmsh.model.getEntities(2):
+        mesh.setTransfiniteSurface(tag, arrangement="Left" if solid else "Alternate")
+    for _, tag in gmsh.model.getEntities(3):
+        mesh.setTransfiniteVolume(tag)
+
+
 def _rectangle(gmsh, cfg: Config, h: float) -> None:
     s = cfg.geometry.side
     gmsh.model.occ.addRectangle(-s / 2, -s / 2, 0.0, s, s)
     gmsh.model.occ.synchronize()
-    gmsh.model.mesh.setSize(gmsh.model.getEntities(0), h)
+    _structured(gmsh, _even_count(s, h))
 
 
 def _cube(gmsh, cfg: Config, h: float) -> None:
     s = cfg.geometry.side
     gmsh.model.occ.addBox(-s / 2, -s / 2, -s / 2, s, s, s)
     gmsh.model.occ.synchronize()
-    gmsh.model.mesh.setSize(gmsh.model.getEntities(0), h)
+    _structured(gmsh, _even_count(s, h))
 
 
 def _boundary_name(kind: str, cfg: Config, lo: np.ndarray, hi: np.ndarray,

@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import re
 import types
 import typing
 from collections.abc import Sequence
 from typing import Any, Union
 
 MISSING = dataclasses.MISSING
+_FLOAT_LITERAL = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
 
 
 def option(help: str, default: Any = MISSING, *, choices: Sequence[Any] | None = None,
@@ -117,6 +119,8 @@ def _convert(value: Any, tp: Any, path: str, errors: list[str]) -> Any:
             return result
         raise _Invalid
     if tp is float:
+        if isinstance(value, str) and _FLOAT_LITERAL.fullmatch(value.strip()):
+            return float(value)  # YAML 1.1 reads 1e-7 (no dot) as a string
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise _Invalid
         return float(value)
