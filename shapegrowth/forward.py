@@ -118,7 +118,12 @@ def solve_forward(cfg: Config, out: Path, probe_texts: list[str] = ()) -> tuple[
         "probes": [{"reference": p[:cfg.dim], "deformed": d} for p, d in zip(probes, deformed)],
     })
     io.write_json(out / "summary.json", summary)
+    for p, d in zip(probes, deformed):
+        log.info("probe X = (%s) -> Phi(X) = (%s)", ", ".join(f"{v:.6g}" for v in p[:cfg.dim]),
+                 ", ".join(f"{v:.6g}" for v in d))
     log.info("wrote %s and %s", out / "summary.json", out / "fields.xdmf")
+    log.info("view: paraview %s, then Filters > Warp By Vector (displacement)",
+             out / "fields.xdmf")
     return summary, 0 if report.converged else 1
 
 
