@@ -12,9 +12,6 @@ export XDG_CACHE_HOME ?= $(CURDIR)/.cache
 export OMPI_ALLOW_RUN_AS_ROOT := 1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 export OMPI_MCA_rmaps_base_oversubscribe := 1
-# One BLAS thread per MPI rank: the ranks already use the cores.
-export OPENBLAS_NUM_THREADS ?= 1
-export OMP_NUM_THREADS ?= 1
 MPIRUN := mpirun -n $(NP)
 
 .PHONY: setup run test test-serial test-mpi clean help
@@ -44,7 +41,7 @@ test-serial:
 # A failure on one rank only can leave the others waiting in a collective: the
 # timeout turns such a hang into a failure.
 test-mpi:
-	@timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(BIN)/python -m pytest -q --color=no -m mpi tests \
+	@OPENBLAS_NUM_THREADS=1 timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(BIN)/python -m pytest -q --color=no -m mpi tests \
 	  || { tail -n 40 .cache/rank-*.log; exit 1; }
 
 clean:

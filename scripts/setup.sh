@@ -4,6 +4,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# OpenBLAS: MUMPS on the 27.9k-DOF P2 bend takes 89 s with Debian's reference BLAS,
+# 31 s with OpenBLAS (serial or one thread), 27 s with the pthread build on 2 threads.
 APT_PACKAGES=(
   python3-dolfinx-real python3-gmsh python3-nlopt python3-h5py python3-venv
   python3-yaml python3-matplotlib python3-scipy python3-pytest

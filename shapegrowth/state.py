@@ -269,9 +269,10 @@ def rigid_body_modes(V) -> PETSc.NullSpace:
     return PETSc.NullSpace().create(vectors=vecs)
 
 
-_SNES_REASONS = {
+_SNES_REASONS = {  # PETSc's SNESConvergedReason
     2: "converged (atol)", 3: "converged (rtol)", 4: "converged (step)", 5: "converged (its)",
-    -1: "diverged (function count)", -2: "diverged (linear solve)", -3: "diverged (NaN residual)",
-    -4: "diverged (NaN residual)", -5: "maximum Newton iterations", -6: "line search failed",
-    -7: "inner solve failed", -8: "local minimum", -9: "diverged (dtol)",
+    -1: "function domain error", -2: "too many function evaluations",
+    -3: "linear solve failed", -4: "NaN residual", -5: "maximum Newton iterations",
+    -6: "line search failed", -7: "inner solve failed", -8: "local minimum",
+    -9: "diverged (dtol)", -10: "Jacobian domain error", -11: "trust region collapsed",
 }
