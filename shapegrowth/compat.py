@@ -65,10 +65,6 @@ def interpolate_expression(target: dolfinx.fem.Function, expr: ufl.core.expr.Exp
     target.interpolate(compiled)
 
 
-def owned_size(space) -> int:
-    """Number of owned (not ghost) scalar DOFs of ``space`` on this rank."""
-    index_map = space.dofmap.index_map
-    return index_map.size_local * space.dofmap.index_map_bs
 
 
 def global_size(space) -> int:
@@ -76,8 +72,6 @@ def global_size(space) -> int:
     return index_map.size_global * space.dofmap.index_map_bs
 
 
-def scatter_forward(u: dolfinx.fem.Function) -> None:
-    u.x.scatter_forward()
 
 
 def evaluate_at_points(u: dolfinx.fem.Function, points: np.ndarray) -> np.ndarray:
@@ -113,13 +107,3 @@ def write_xdmf(path: Path, mesh, functions: list[dolfinx.fem.Function]) -> None:
         xdmf.write_mesh(mesh)
         for f in functions:
             xdmf.write_function(f)
-
-
-def entities_on_boundary(mesh, facet_tags, tag: int) -> np.ndarray:
-    return facet_tags.indices[facet_tags.values == tag]
-
-
-def locate_vertex_dofs(space, point: np.ndarray, tol: float) -> np.ndarray:
-    """DOFs of ``space`` (a collapsed scalar subspace) at one point."""
-    return dolfinx.fem.locate_dofs_geometrical(
-        space, lambda x: np.linalg.norm(x - np.asarray(point).reshape(3, 1), axis=0) < tol)
