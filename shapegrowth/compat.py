@@ -107,3 +107,11 @@ def write_xdmf(path: Path, mesh, functions: list[dolfinx.fem.Function]) -> None:
         xdmf.write_mesh(mesh)
         for f in functions:
             xdmf.write_function(f)
+
+
+def set_option(opts, key: str, value) -> None:
+    """Set a PETSc option from a config value: true is a bare flag, false removes it."""
+    if value is False:
+        opts.delValue(key)
+    else:
+        opts[key] = "" if value is True else value

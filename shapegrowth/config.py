@@ -141,6 +141,8 @@ class HausdorffConfig:
     alpha: float = option("alpha of (2.9) (sharpness; scales like 1/length)", 100.0, gt=0)
     beta: float = option("beta of (2.9)", 2.0, gt=0)
     gamma: float = option("gamma of (2.9)", 2.0, gt=0)
+    quadrature_degree: int = option("quadrature degree of the point clouds of both bodies", 2,
+                                    ge=1, le=8)
 
 
 @dataclass(frozen=True)
@@ -180,8 +182,12 @@ class SolverConfig:
     line_search: str = option("SNES line search (basic is plain Newton, fastest here)", "basic",
                               choices=("basic", "bt", "l2", "cp"))
     max_newton_iterations: int = option("Newton iterations per continuation step", 15, ge=1)
-    rtol: float = option("Newton relative residual tolerance", 1.0e-9, gt=0, lt=1)
-    atol: float = option("Newton absolute residual tolerance", 1.0e-10, gt=0)
+    rtol: float = option("Newton relative residual tolerance", 1.0e-11, gt=0, lt=1)
+    atol: float = option("Newton absolute residual tolerance (thin bodies are soft in bending: "
+                         "a residual of 1e-10 can leave displacement errors of 1e-6)", 1.0e-15,
+                         gt=0)
+    stol: float = option("Newton stops when an update is below stol times the displacement",
+                         1.0e-9, ge=0, lt=1)
     continuation: ContinuationConfig = option("growth continuation and step cutting",
                                               ContinuationConfig())
     petsc_options: dict[str, str | float | int | bool] = option(

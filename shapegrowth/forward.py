@@ -104,6 +104,20 @@ def solve_forward(cfg: Config, out: Path, probe_texts: list[str] = ()) -> tuple[
              report.newton_iterations, report.seconds)
 
     vol_ref, vol_def = model.volumes()
+    shape = {}
+    if cfg.target is not None:
+        from .objective import Objective
+
+        with timer("hausdorff"):
+            objective = Objective(cfg, model.state)
+            value, _ = objective.evaluate(gradient=False)
+            exact = objective.exact_hausdorff()
+        shape = {"objective_initial": value.total, "objective_final": value.total,
+                 "rho_H_initial": value.rho_H, "rho_H_final": value.rho_H,
+                 "hausdorff_initial": exact, "hausdorff_final": exact,
+                 "target_size": objective.target_size}
+        log.info("rho_H = %.6g, Hausdorff distance %.6g (%.3g of the target size)", value.rho_H,
+                 exact, exact / objective.target_size)
     deformed = []
     if len(probes):
         u = compat.evaluate_at_points(model.state.u, probes)
@@ -111,6 +125,7 @@ def solve_forward(cfg: Config, out: Path, probe_texts: list[str] = ()) -> tuple[
     with timer("io"):
         io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied)
     summary = _summary(cfg, model, report, status, timer)
+    summary.update(shape)
     summary.update({
         "volume_reference": vol_ref,
         "volume_deformed": vol_def,

@@ -30,6 +30,7 @@ import dolfinx.la
 import ufl
 
 from . import compat
+from .compat import set_option
 from .boundary import clamp_conditions
 from .config import Config, ConfigError
 from .geometry import Domain
@@ -65,7 +66,7 @@ def solver_options(cfg: Config) -> dict[str, object]:
         "snes_max_it": s.max_newton_iterations,
         "snes_rtol": s.rtol,
         "snes_atol": s.atol,
-        "snes_stol": 0.0,
+        "snes_stol": s.stol,
         "snes_error_if_not_converged": False,
     }
     if s.linear == "mumps":
@@ -97,8 +98,8 @@ class StateProblem:
         self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=domain.facet_tags,
                               metadata=metadata)
         self.energy = self._energy()
-        v, du = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
-        self.residual_ufl = ufl.derivative(self.energy, self.u, v)
+        self.v, du = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
+        self.residual_ufl = ufl.derivative(self.energy, self.u, self.v)
         self.jacobian_ufl = ufl.derivative(self.residual_ufl, self.u, du)
         self.residual_form = dolfinx.fem.form(self.residual_ufl)
         self.jacobian_form = dolfinx.fem.form(self.jacobian_ufl)
@@ -143,7 +144,7 @@ class StateProblem:
         user = {k: v for k, v in self.cfg.solver.petsc_options.items()
                 if k.startswith(self.prefix)}
         for key, value in user.items():
-            opts[key] = "" if value is True else value  # a bare flag means true in PETSc
+            set_option(opts, key, value)
         snes.setFunction(self._assemble_residual, self.b)
         snes.setJacobian(self._assemble_jacobian, self.A)
         try:
@@ -201,6 +202,8 @@ class StateProblem:
             start, scale0, dt = self.target.identity_values(), 0.0, cont.initial_step
         else:
             start, scale0, dt = self._equilibrium, 1.0, 1.0
+        # progress per load step from rest; warm re-solves (optimisation) only in --verbose
+        level = logging.INFO if self._at_rest else logging.DEBUG
         t = 0.0
         saved = self.u.x.array.copy()
         previous: tuple[float, np.ndarray] | None = None  # the equilibrium before `saved`
@@ -220,16 +223,16 @@ class StateProblem:
                 saved[:] = self.u.x.array
                 report.steps += 1
                 report.history.append((t, its))
-                log.info("  load step %3d: t = %.4f (step %.3g), %2d Newton iterations",
-                         report.steps, t, dt, its)
+                log.log(level, "  load step %3d: t = %.4f (step %.3g), %2d Newton iterations",
+                        report.steps, t, dt, its)
                 if its <= 5:
                     dt *= 2.0
                 continue
             report.failed_steps += 1
             self.u.x.array[:] = saved
             dt /= 2.0
-            log.info("  load step at t = %.4f failed (%s after %d iterations): step cut to %.3g",
-                     trial, reason, its, dt)
+            log.log(level, "  load step at t = %.4f failed (%s after %d iterations): "
+                    "step cut to %.3g", trial, reason, its, dt)
             if dt < cont.min_step or report.steps + report.failed_steps >= cont.max_steps:
                 report.converged = False
                 report.reason = f"no equilibrium beyond {t:.4f} of the growth ({reason})"

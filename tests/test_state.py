@@ -197,8 +197,9 @@ def PETSc_REVERSE():
 
 
 def test_warm_start_after_a_small_growth_change_is_cheap():
-    """From rest the bend takes 31 Newton iterations in 5 load steps; after a 1% change
-    of every eigenvalue one step of 4-5 iterations (atol 1e-10) brings it back."""
+    """After a 1% change of every eigenvalue one load step of 6 Newton iterations brings
+    the bent beam back (residual 1.2e-3 -> 2.6e-16; tolerances tight enough that the
+    objective does not depend on the solution path, to 1e-13)."""
     _, model = bent_beam(1.0, 0.1, 1)
     first = model.state.solve()  # already in equilibrium: nothing to do
     assert first.newton_iterations <= 1
@@ -206,7 +207,7 @@ def test_warm_start_after_a_small_growth_change_is_cheap():
         f.x.array[:] *= 1.01
     report = model.state.solve()
     assert report.converged and report.steps == 1
-    assert report.newton_iterations <= 5
+    assert report.newton_iterations <= 6
 
 
 def test_failed_solve_is_reported_and_keeps_the_last_equilibrium(tmp_path):

@@ -1,0 +1,82 @@
+"""The objective J = rho_H(deformed body, target) + complexity, with its partial
+derivatives: with respect to u (for the adjoint) and, for the complexity terms,
+explicitly with respect to the growth fields."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx.fem
+import dolfinx.fem.petsc
+import ufl
+
+from .clouds import QuadratureCloud, assemble
+from .complexity import complexity_density
+from .config import Config
+from .hausdorff import PointCloud, SmoothHausdorff, exact_hausdorff
+from .state import StateProblem
+from .targets import target_cloud
+
+
+@dataclass
+class ObjectiveValue:
+    total: float
+    rho_H: float
+    complexity: float
+    d_target_to_body: float
+    d_body_to_target: float
+
+
+class Objective:
+    def __init__(self, cfg: Config, state: StateProblem):
+        h = cfg.objective.hausdorff
+        mesh = state.domain.mesh
+        self.comm = mesh.comm
+        self.state = state
+        self.cloud = QuadratureCloud(mesh, h.quadrature_degree)
+        self.target = target_cloud(cfg, self.cloud, self.comm)
+        self.target_size = self.target.extent(self.comm)
+        self.rho = SmoothHausdorff(alpha=h.alpha, beta=h.beta, gamma=h.gamma, phi=h.phi)
+        self._deformed = self.cloud.deformed_factory(state.u)
+        self._pullback, self._fill = self.cloud.pullback_form(state.u)
+        density = complexity_density(cfg.objective.complexity, state.applied)
+        self._complexity = None
+        if density is not None:
+            dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": 4})
+            mu = ufl.TestFunction(state.applied.space)
+            self._complexity = dolfinx.fem.form(density * dx)
+            self._complexity_derivatives = [
+                dolfinx.fem.form(ufl.derivative(density * dx, f, mu)) for f in state.applied.fields]
+
+    def deformed(self) -> PointCloud:
+        return self._deformed()
+
+    def evaluate(self, gradient: bool) -> tuple[ObjectiveValue, PETSc.Vec | None]:
+        """J at the current state; with ``gradient``, also dJ/du as a vector."""
+        result = self.rho(self.deformed(), self.target, self.comm, gradient=gradient)
+        complexity = 0.0
+        if self._complexity is not None:
+            complexity = self.comm.allreduce(
+                dolfinx.fem.assemble_scalar(self._complexity), MPI.SUM)
+        value = ObjectiveValue(result.value + complexity, result.value, complexity,
+                               result.d_target_to_body, result.d_body_to_target)
+        if not gradient:
+            return value, None
+        self._fill(result.grad_points, result.grad_weights)
+        return value, assemble(self._pullback)
+
+    def explicit_growth_derivatives(self) -> list[PETSc.Vec] | None:
+        """dJ/d(growth field) at fixed u: the complexity terms only (None without them)."""
+        if self._complexity is None:
+            return None
+        return [assemble(form) for form in self._complexity_derivatives]
+
+    def exact_hausdorff(self) -> float:
+        return exact_hausdorff(self.deformed(), self.target, self.comm)
+
+    def relative_error(self) -> float:
+        return self.exact_hausdorff() / self.target_size if self.target_size > 0 else np.inf
