@@ -143,6 +143,8 @@ class HausdorffConfig:
     gamma: float = option("gamma of (2.9)", 2.0, gt=0)
     quadrature_degree: int = option("quadrature degree of the point clouds of both bodies", 2,
                                     ge=1, le=8)
+    cutoff: float = option("pairs whose term is below exp(-cutoff) of the nearest are skipped "
+                           "(where that prunes)", 20.0, ge=5)
 
 
 @dataclass(frozen=True)

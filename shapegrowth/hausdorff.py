@@ -76,6 +76,7 @@ class SmoothHausdorff:
     gamma: float = 2.0
     phi: str = "exp"
     truncate: bool | None = None  # None: use the cell grid where it prunes
+    cutoff: float = kernels.CUTOFF  # pairs beyond exp(-cutoff) of the nearest are dropped
 
     @property
     def rational(self) -> bool:
@@ -85,7 +86,7 @@ class SmoothHausdorff:
         return np.log1p(r) if self.rational else r
 
     def _cutoff_radius(self, gmin: np.ndarray) -> np.ndarray:
-        reach = gmin + kernels.CUTOFF / self.alpha
+        reach = gmin + self.cutoff / self.alpha
         return np.expm1(reach) if self.rational else reach
 
     def _distance(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -39,8 +39,9 @@ class Objective:
         self.state = state
         self.cloud = QuadratureCloud(mesh, h.quadrature_degree)
         self.target = target_cloud(cfg, self.cloud, self.comm)
-        self.target_size = self.target.extent(self.comm)
-        self.rho = SmoothHausdorff(alpha=h.alpha, beta=h.beta, gamma=h.gamma, phi=h.phi)
+        self.target_size = self.target.extent(self.comm)  # of the sample points, as rho_H sees it
+        self.rho = SmoothHausdorff(alpha=h.alpha, beta=h.beta, gamma=h.gamma, phi=h.phi,
+                                   cutoff=h.cutoff)
         self._deformed = self.cloud.deformed_factory(state.u)
         self._pullback, self._fill = self.cloud.pullback_form(state.u)
         density = complexity_density(cfg.objective.complexity, state.applied)
