@@ -56,6 +56,9 @@ def _parser() -> argparse.ArgumentParser:
                            help="forward solve with the config's initial growth")
     solve.add_argument("--probe", action="append", default=[], metavar="X1,X2,X3",
                        help="report the deformed position of this reference point; repeatable")
+    run = sub.add_parser("run", parents=[common], help="the optimisation, end to end")
+    run.add_argument("--resume", action="store_true",
+                     help="continue an interrupted run from its checkpoint.h5 (same ranks)")
     check = sub.add_parser("gradcheck", parents=[common],
                            help="Taylor test of the reduced gradient in a random direction")
     check.add_argument("--seed", type=int, default=0, help="seed of the direction (default 0)")
@@ -95,7 +98,21 @@ def _gradcheck(cfg, args) -> int:
     return EXIT_OK if report["min_rate"] > 1.9 else EXIT_FAILED
 
 
-COMMANDS = {"validate": _validate, "mesh": _mesh, "solve": _solve, "gradcheck": _gradcheck}
+def _run(cfg, args) -> int:
+    from .optimize import ResumeError
+    from .runner import run_optimization
+
+    try:
+        _, status = run_optimization(cfg, args.out or cfg.output_dir, args.resume)
+    except ResumeError as err:
+        from .forward import InputError
+
+        raise InputError(str(err)) from None
+    return status
+
+
+COMMANDS = {"validate": _validate, "mesh": _mesh, "solve": _solve, "gradcheck": _gradcheck,
+            "run": _run}
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:

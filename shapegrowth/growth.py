@@ -83,6 +83,8 @@ class Growth:
         uniform ramp in logarithmic strain that keeps them positive; angles move
         linearly.
         """
+        if t == 1.0:  # exactly the end: the state must balance the requested growth itself
+            return [b.copy() for b in end]
         n = len(self.eigenvalues)
         out = [np.exp((1 - t) * np.log(a) + t * np.log(b)) for a, b in zip(start[:n], end[:n])]
         out += [(1 - t) * a + t * b for a, b in zip(start[n:], end[n:])]

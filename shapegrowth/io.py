@@ -76,3 +76,47 @@ def write_fields(path: Path, displacement: dolfinx.fem.Function, growth: Growth,
     functions += eigenvector_fields(growth)
     functions += [to_p1(f) for f in extra]
     compat.write_xdmf(path, displacement.function_space.mesh, functions)
+
+
+HISTORY_COLUMNS = ("iteration", "objective", "rho_H", "complexity", "hausdorff",
+                   "grad_norm", "newton_iterations", "seconds")
+
+
+def write_history(out: Path, records, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
+    """history.csv (one row per iteration) and history.png (objective against
+    iteration, as in the paper's Fig. 4)."""
+    if comm.rank == 0 and records:
+        out.mkdir(parents=True, exist_ok=True)
+        lines = [",".join(HISTORY_COLUMNS)]
+        for r in records:
+            lines.append(",".join(repr(getattr(r, c)) for c in HISTORY_COLUMNS))
+        (out / "history.csv").write_text("\n".join(lines) + "\n")
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(5.5, 3.6), dpi=120)
+        it = [r.iteration for r in records]
+        ax.semilogy(it, [r.objective for r in records], "o-", ms=3, label="objective J")
+        ax.semilogy(it, [r.hausdorff for r in records], "s--", ms=3, alpha=0.7,
+                    label="exact Hausdorff distance")
+        ax.set_xlabel("iteration")
+        ax.set_ylabel("value")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        fig.savefig(out / "history.png")
+        plt.close(fig)
+    comm.barrier()
+
+
+def deformation_field(displacement: dolfinx.fem.Function) -> dolfinx.fem.Function:
+    """Phi = X + u as a P1 vector field (named Phi)."""
+    import ufl
+
+    space = compat.vector_space(displacement.function_space.mesh, 1)
+    phi = dolfinx.fem.Function(space, name="Phi")
+    compat.interpolate_expression(
+        phi, ufl.SpatialCoordinate(space.mesh) + displacement)
+    return phi

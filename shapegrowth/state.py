@@ -110,6 +110,7 @@ class StateProblem:
         self.snes = self._create_snes()
         self._at_rest = True
         self._equilibrium: list[np.ndarray] | None = None  # growth values of the last equilibrium
+        self.initial_step_scale = 1.0  # a retry from rest may ask for smaller first steps
 
     # ---- the model -------------------------------------------------------------------------
     def deformation_gradient(self) -> ufl.core.expr.Expr:
@@ -186,6 +187,13 @@ class StateProblem:
         return ok, its, _SNES_REASONS.get(reason, str(reason))
 
     # ---- continuation ----------------------------------------------------------------------
+    def adopt_equilibrium(self) -> None:
+        """Take the current ``u`` as the equilibrium of the target growth (a restored state)."""
+        self.applied.assign(self.target.values())
+        self.load_scale.value = 1.0
+        self._equilibrium = self.target.values()
+        self._at_rest = False
+
     def reset(self) -> None:
         """Forget the equilibrium: the next solve starts from rest."""
         self.u.x.array[:] = 0.0
@@ -199,7 +207,8 @@ class StateProblem:
         tic = time.perf_counter()
         end = self.target.values()
         if self._at_rest:
-            start, scale0, dt = self.target.identity_values(), 0.0, cont.initial_step
+            start, scale0 = self.target.identity_values(), 0.0
+            dt = cont.initial_step * self.initial_step_scale
         else:
             start, scale0, dt = self._equilibrium, 1.0, 1.0
         # progress per load step from rest; warm re-solves (optimisation) only in --verbose
