@@ -14,10 +14,11 @@ export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 export OMPI_MCA_rmaps_base_oversubscribe := 1
 MPIRUN := mpirun -n $(NP)
 
-.PHONY: setup run test test-serial test-mpi clean help
+.PHONY: setup run bend test test-serial test-mpi clean help
 
 help:
 	@echo "make run    - the default scene end to end (installs what is missing)"
+	@echo "make bend   - the forward model alone: a beam bent into a half circle"
 	@echo "make test   - the test suite, serial and under mpirun -n $(NP)"
 	@echo "make setup  - Debian packages and .venv only"
 
@@ -27,7 +28,13 @@ $(STAMP): pyproject.toml scripts/setup.sh
 	@scripts/setup.sh
 	@touch $@
 
+# The default scene: scene 1 (beam_wave) on a coarse mesh, optimised end to end.
 run: setup
+	$(BIN)/shapegrowth run configs/beam_wave.yaml --set mesh.size=0.1 --set optimizer.max_iterations=60 \
+	  --out results/beam_wave_coarse
+
+# The forward model alone: the beam bent into a half circle by a compatible growth.
+bend: setup
 	$(BIN)/shapegrowth solve configs/beam_bend.yaml --probe 1,0,0
 
 test: setup

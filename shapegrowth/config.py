@@ -188,9 +188,8 @@ class SolverConfig:
                               choices=("basic", "bt", "l2", "cp"))
     max_newton_iterations: int = option("Newton iterations per continuation step", 15, ge=1)
     rtol: float = option("Newton relative residual tolerance", 1.0e-11, gt=0, lt=1)
-    atol: float = option("Newton absolute residual tolerance (thin bodies are soft in bending: "
-                         "a residual of 1e-10 can leave displacement errors of 1e-6)", 1.0e-15,
-                         gt=0)
+    atol: float = option("Newton absolute residual tolerance, relative to the body's force "
+                         "scale (mu1 + mu2 + lambda) |body|^((d-1)/d)", 1.0e-14, gt=0)
     stol: float = option("Newton stops when an update is below stol times the displacement",
                          1.0e-9, ge=0, lt=1)
     continuation: ContinuationConfig = option("growth continuation and step cutting",
