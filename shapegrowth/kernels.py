@@ -82,11 +82,12 @@ def auto_cell(sources: np.ndarray, radii: np.ndarray) -> float | None:
     typical = float(np.median(radii))
     if typical >= 0.5 * float(extent.max()):
         return None  # most queries see most sources
-    # cells of half the typical cutoff radius, but not more cells than ~ sources / 16
+    # cells of 0.35 x the typical cutoff radius (0.5: 3.1 s, 0.35: 2.9 s, 0.25: 2.9 s at
+    # 1e5 points), but not more cells than ~ sources / 16
     filled = extent[extent > 1e-12 * max(extent.max(), 1.0)]
     volume = float(np.prod(filled)) if len(filled) else 1.0
     floor = (volume / (len(pts) / 16.0)) ** (1.0 / max(len(filled), 1))
-    return max(0.5 * typical, floor)
+    return max(0.35 * typical, floor)
 
 
 @numba.njit(cache=True)
