@@ -102,7 +102,10 @@ def _cell_range(q, radius, origin, cell, shape):
     return lo, hi
 
 
-_FAST = {"contract", "arcp", "afn", "reassoc"}  # no nnan/ninf: inputs stay checked
+# No nnan/ninf: inputs stay checked.  No reassoc either: it lets LLVM vectorise the
+# sums, but exp stays a scalar libm call, and packing and unpacking the vector lanes
+# around it made the loop 2.6x slower than the scalar one (1.4e8 against 3.6e8 pairs/s).
+_FAST = {"contract", "arcp", "afn"}
 
 
 @numba.njit(cache=True, inline="always")
