@@ -13,7 +13,9 @@ Sources are bucketed in a uniform cell grid.  A query visits only the cells
 within its cutoff radius, the r where alpha (g(r) - g_min) = c, so each dropped
 term is below exp(-c) relative to the largest; with a single cell the kernels
 are the plain brute force.  Sources are stored as three contiguous
-coordinate rows so that the inner loop vectorises.
+coordinate rows (sorted by cell), so a query streams through memory.
+Measured brute-force throughput on this 2-core machine: 3.6e8 pairs/s for
+values with query gradients, 3.4e8 for source gradients (benchmarks/hausdorff.py).
 """
 
 from __future__ import annotations
@@ -125,8 +127,19 @@ def _column(qx, qy, qz, radius, ix, iy, origin, cell, shape, start):
 
 
 @numba.njit(cache=True, fastmath=_FAST, inline="always")
-def _span_exp(qx, qy, qz, base, alpha, xs, ys, zs, w, j0, j1):
-    """Sums over sources j0..j1 for phi = exp: Z and V (see soft_values)."""
+def _term(dx, dy, dz, base, alpha, rational):
+    """(exp(-alpha (g(r) - base)), g'(r) / r) for one pair; g(r) = r or log(1 + r)."""
+    r = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if rational:
+        return math.exp(-min(alpha * (math.log1p(r) - base), 100.0)), \
+            1.0 / (max(r, 1e-300) * (1.0 + r))
+    # r = 0 only where dx = dy = dz = 0, so 1/max(r, tiny) multiplies zeros there
+    return math.exp(-min(alpha * (r - base), 100.0)), 1.0 / max(r, 1e-300)
+
+
+@numba.njit(cache=True, fastmath=_FAST, inline="always")
+def _span(qx, qy, qz, base, alpha, rational, xs, ys, zs, w, j0, j1):
+    """Sums over sources j0..j1: Z and V (see soft_values)."""
     z = 0.0
     vx = 0.0
     vy = 0.0
@@ -135,9 +148,9 @@ def _span_exp(qx, qy, qz, base, alpha, xs, ys, zs, w, j0, j1):
         dx = qx - xs[j]
         dy = qy - ys[j]
         dz = qz - zs[j]
-        r = math.sqrt(dx * dx + dy * dy + dz * dz)
-        e = w[j] * math.exp(-min(alpha * (r - base), 100.0))
-        f = e / max(r, 1e-300)  # r = 0 only where dx = dy = dz = 0
+        e, gr = _term(dx, dy, dz, base, alpha, rational)
+        e *= w[j]
+        f = e * gr
         z += e
         vx += f * dx
         vy += f * dy
@@ -146,50 +159,14 @@ def _span_exp(qx, qy, qz, base, alpha, xs, ys, zs, w, j0, j1):
 
 
 @numba.njit(cache=True, fastmath=_FAST, inline="always")
-def _span_rational(qx, qy, qz, base, alpha, xs, ys, zs, w, j0, j1):
-    """As _span_exp for phi(t) = 1/(1 + t): g(r) = log(1 + r)."""
-    z = 0.0
-    vx = 0.0
-    vy = 0.0
-    vz = 0.0
+def _scatter(qx, qy, qz, base, alpha, rational, a, xs, ys, zs, ax, ay, az, b, j0, j1):
     for j in range(j0, j1):
         dx = qx - xs[j]
         dy = qy - ys[j]
         dz = qz - zs[j]
-        r = math.sqrt(dx * dx + dy * dy + dz * dz)
-        e = w[j] * math.exp(-min(alpha * (math.log1p(r) - base), 100.0))
-        f = e / (max(r, 1e-300) * (1.0 + r))
-        z += e
-        vx += f * dx
-        vy += f * dy
-        vz += f * dz
-    return z, vx, vy, vz
-
-
-@numba.njit(cache=True, fastmath=_FAST, inline="always")
-def _scatter_exp(qx, qy, qz, base, alpha, a, xs, ys, zs, ax, ay, az, b, j0, j1):
-    for j in range(j0, j1):
-        dx = qx - xs[j]
-        dy = qy - ys[j]
-        dz = qz - zs[j]
-        r = math.sqrt(dx * dx + dy * dy + dz * dz)
-        e = a * math.exp(-min(alpha * (r - base), 100.0))
-        f = e / max(r, 1e-300)
-        b[j] += e
-        ax[j] += f * dx
-        ay[j] += f * dy
-        az[j] += f * dz
-
-
-@numba.njit(cache=True, fastmath=_FAST, inline="always")
-def _scatter_rational(qx, qy, qz, base, alpha, a, xs, ys, zs, ax, ay, az, b, j0, j1):
-    for j in range(j0, j1):
-        dx = qx - xs[j]
-        dy = qy - ys[j]
-        dz = qz - zs[j]
-        r = math.sqrt(dx * dx + dy * dy + dz * dz)
-        e = a * math.exp(-min(alpha * (math.log1p(r) - base), 100.0))
-        f = e / (max(r, 1e-300) * (1.0 + r))
+        e, gr = _term(dx, dy, dz, base, alpha, rational)
+        e *= a
+        f = e * gr
         b[j] += e
         ax[j] += f * dx
         ay[j] += f * dy
@@ -215,12 +192,8 @@ def soft_values(queries, xyz, w, origin, cell, shape, start, gmin, radius, alpha
         for ix in range(lo[0], hi[0] + 1):
             for iy in range(lo[1], hi[1] + 1):
                 j0, j1 = _column(qx, qy, qz, radius[i], ix, iy, origin, cell, shape, start)
-                if rational:
-                    dz_, dvx, dvy, dvz = _span_rational(qx, qy, qz, base, alpha, xs, ys, zs, w,
-                                                        j0, j1)
-                else:
-                    dz_, dvx, dvy, dvz = _span_exp(qx, qy, qz, base, alpha, xs, ys, zs, w,
-                                                   j0, j1)
+                dz_, dvx, dvy, dvz = _span(qx, qy, qz, base, alpha, rational, xs, ys, zs, w,
+                                           j0, j1)
                 z += dz_
                 vx += dvx
                 vy += dvy
@@ -257,12 +230,8 @@ def soft_source_gradient(queries, xyz, origin, cell, shape, start, gmin, radius,
             for ix in range(lo[0], hi[0] + 1):
                 for iy in range(lo[1], hi[1] + 1):
                     j0, j1 = _column(qx, qy, qz, radius[i], ix, iy, origin, cell, shape, start)
-                    if rational:
-                        _scatter_rational(qx, qy, qz, base, alpha, a, xs, ys, zs, ax, ay, az, b,
-                                          j0, j1)
-                    else:
-                        _scatter_exp(qx, qy, qz, base, alpha, a, xs, ys, zs, ax, ay, az, b,
-                                     j0, j1)
+                    _scatter(qx, qy, qz, base, alpha, rational, a, xs, ys, zs, ax, ay, az, b,
+                             j0, j1)
     total = np.zeros((m, 4))
     for k in range(nchunks):
         for c in range(4):
