@@ -124,7 +124,7 @@ def solve_forward(cfg: Config, out: Path, probe_texts: list[str] = ()) -> tuple[
         deformed = probes[:, :cfg.dim] + u
     with timer("io"):
         io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied)
-    summary = _summary(cfg, model, report, status, timer)
+    summary = base_summary(cfg, model, report, status, timer)
     summary.update(shape)
     summary.update({
         "volume_reference": vol_ref,
@@ -142,7 +142,7 @@ def solve_forward(cfg: Config, out: Path, probe_texts: list[str] = ()) -> tuple[
     return summary, 0 if report.converged else 1
 
 
-def _summary(cfg: Config, model: ForwardModel, report: SolveReport, status: str,
+def base_summary(cfg: Config, model: ForwardModel, report: SolveReport, status: str,
              timer: Timer) -> dict[str, Any]:
     return {
         "name": cfg.name,

@@ -12,9 +12,10 @@ from pathlib import Path
 from typing import Any
 
 from . import compat, io
-from .forward import ForwardModel, _summary
+from .forward import ForwardModel, base_summary
 from .optimize import Optimizer
 from .problem import ReducedFunctional, StateSolveError
+from .state import SolveReport
 from .timing import Timer
 
 log = logging.getLogger(__name__)
@@ -38,7 +39,8 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> tuple[dict[str, An
         io.write_history(out, history)
         phi = io.deformation_field(model.state.u)
         io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied, extra=[phi])
-    summary = _summary(cfg, model, final.report if final else _empty_report(), status, timer)
+    report = final.report if final else SolveReport(converged=False, reason="no state")
+    summary = base_summary(cfg, model, report, status, timer)
     first = history[0] if history else None
     exact = rf.objective.exact_hausdorff()
     summary.update({
@@ -66,8 +68,3 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> tuple[dict[str, An
              out / "fields.xdmf")
     return summary, 0 if not status.startswith("failed") else 1
 
-
-def _empty_report():
-    from .state import SolveReport
-
-    return SolveReport(converged=False, reason="no state")
