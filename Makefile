@@ -30,7 +30,7 @@ $(STAMP): pyproject.toml scripts/setup.sh
 
 # The default scene: scene 1 (beam_wave) on a coarse mesh, optimised end to end.
 run: setup
-	$(BIN)/shapegrowth run configs/beam_wave.yaml --set mesh.size=0.1 --set optimizer.max_iterations=60 \
+	$(BIN)/shapegrowth run configs/beam_wave.yaml --set mesh.size=0.1 --set optimizer.max_iterations=250 \
 	  --out results/beam_wave_coarse
 
 # The forward model alone: the beam bent into a half circle by a compatible growth.

@@ -166,8 +166,9 @@ class OptimizerConfig:
     max_iterations: int = option("iteration limit", 100, ge=0)
     ftol_rel: float = option("stop on relative objective change below this", 1.0e-6, ge=0)
     xtol_rel: float = option("stop on relative design change below this", 0.0, ge=0)
-    move_limit: float = option("NLopt works in a box of +- this around the current design "
-                               "(0: the whole bounds)", 0.3, ge=0)
+    move_limit: float = option("MMA works in a box of +- this around the current design "
+                               "(0: the whole bounds); SLSQP always uses the whole bounds",
+                               0.3, ge=0)
     restart_every: int = option("evaluations before the box is re-centred", 10, ge=2)
 
 

@@ -12,13 +12,15 @@ SLSQP are deterministic, so they ask for the same designs, which the checksums
 confirm - then continues with real evaluations.  The resumed run therefore has
 the same iterates and numbering as one that was never interrupted.
 
-Move limits: NLopt's MMA sets its initial asymptote distances to half the bound
-range and ignores any initial step, so with the paper's eigenvalue bounds
-[0.01, 12] its first trial moves every eigenvalue by about 3, far from any
+Move limits (MMA only): NLopt's MMA sets its initial asymptote distances to half
+the bound range and ignores any initial step, so with the paper's eigenvalue
+bounds [0.01, 12] its first trial moves every eigenvalue by about 3, far from any
 useful design (on the tiny beam_wave the objective tripled and one trial took
-628 Newton iterations).  NLopt is therefore run on a box of +-``move_limit``
+628 Newton iterations).  MMA is therefore run on a box of +-``move_limit``
 around the current design, for at most ``restart_every`` evaluations, and the
-box is re-centred until NLopt converges inside a box or the iterations run out.
+box is re-centred until MMA converges inside a box or the iterations run out
+(beam_wave, coarse: 11.9 % shape error after 60 iterations in boxes of 0.3,
+14.5 % after 100 on the whole bounds).  SLSQP runs on the whole bounds.
 
 A state solve that fails is retried once from rest with smaller load steps; if
 that fails too, the run stops with status ``failed: <reason>`` and the best
@@ -261,7 +263,10 @@ class Optimizer:
         log.info("%5s %13s %13s %11s %10s %6s %9s", "iter", "J", "rho_H", "Hausdorff", "|dJ/dm|",
                  "Newton", "seconds")
         code = nlopt.MAXEVAL_REACHED
-        limit = opt_cfg.move_limit
+        # SLSQP controls its steps by a line search, and a restart would discard its
+        # quasi-Newton model (beam_wave, 100 iterations: 2.1 % shape error on the whole
+        # bounds, 12-14 % in boxes): move limits are for MMA.
+        limit = opt_cfg.move_limit if opt_cfg.algorithm == "mma" else 0.0
         while len(self.history) < max_evals:
             box_lo = np.maximum(lo, x - limit) if limit > 0 else lo
             box_hi = np.minimum(hi, x + limit) if limit > 0 else hi
