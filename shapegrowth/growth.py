@@ -39,10 +39,10 @@ class Growth:
         self.degree, self.incompressible = degree, incompressible
         self.space = compat.scalar_space(mesh, degree)
         n_eig = dim - 1 if incompressible else dim
-        self.eigenvalues = [dolfinx.fem.Function(self.space, name=f"lambda_{i + 1}")
+        self.eigenvalues = [dolfinx.fem.Function(self.space, name=f"lambda_hat_{i + 1}")
                             for i in range(n_eig)]
         n_ang = (3 if dim == 3 else 1) if frame == "free" else 0
-        self.angles = [dolfinx.fem.Function(self.space, name=f"theta_{i + 1}")
+        self.angles = [dolfinx.fem.Function(self.space, name=f"theta_hat_{i + 1}")
                        for i in range(n_ang)]
         for f in self.eigenvalues:
             f.x.array[:] = 1.0

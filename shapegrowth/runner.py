@@ -64,7 +64,7 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> tuple[dict[str, An
              summary["rho_H_initial"] or float("nan"), summary["rho_H_final"] or float("nan"),
              exact, 100 * rel)
     log.info("results in %s: summary.json, history.csv, history.png, fields.xdmf", out)
-    log.info("view: paraview %s, Filters > Warp By Vector (displacement), colour by lambda_1",
+    log.info("view: paraview %s, Filters > Warp By Vector (displacement), colour by lambda_hat_1",
              out / "fields.xdmf")
     return summary, 0 if not status.startswith("failed") else 1
 

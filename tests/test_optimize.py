@@ -88,6 +88,33 @@ def _checkpointed(path: Path) -> int:
         return 0
 
 
+def test_failed_state_solve_ends_the_run_with_the_best_design(tmp_path):
+    """Newton limited to 2 iterations and load steps to >= 0.3: the first real design
+    change cannot be solved, also not on the retry from rest."""
+    code = run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=5",
+                   "--set", "solver.max_newton_iterations=2",
+                   "--set", "solver.continuation.min_step=0.3",
+                   "--set", "solver.continuation.initial_step=0.5")
+    s = read_json(tmp_path / "summary.json")
+    assert code == 1
+    assert s["status"].startswith("failed: state solve failed at iteration 1")
+    assert s["iterations"] == 1
+    assert s["objective_final"] == pytest.approx(s["objective_initial"], rel=1e-12)  # the best
+    for name in ("history.csv", "fields.xdmf", "checkpoint.h5"):
+        assert (tmp_path / name).is_file()
+
+
+def test_run_fields_hold_phi_and_the_filtered_growth(tmp_path):
+    import h5py
+
+    assert run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=2",
+                   "--set", "growth.filter_length=0.05") == 0
+    with h5py.File(tmp_path / "fields.h5") as h5:
+        names = set(h5["Function"])
+    assert {"Phi", "displacement", "lambda_hat_1", "lambda_hat_2", "lambda_hat_3",
+            "v_1", "v_2", "v_3"} <= names
+
+
 def test_resume_without_checkpoint_is_bad_input(tmp_path, capsys):
     assert run_cli("run", ARC, "--out", tmp_path, "--resume") == 2
     err = capsys.readouterr().err.strip().splitlines()

@@ -128,8 +128,8 @@ def test_fields_file_holds_every_field(shared_tmp):
     if MPI.COMM_WORLD.rank == 0:
         with h5py.File(shared_tmp / "fields.h5") as h5:
             names = set(h5["Function"])
-        assert names == {"displacement", "lambda_1", "lambda_2", "lambda_3", "theta_1",
-                         "theta_2", "theta_3", "v_1", "v_2", "v_3"}
+        assert names == {"displacement", "lambda_hat_1", "lambda_hat_2", "lambda_hat_3",
+                         "theta_hat_1", "theta_hat_2", "theta_hat_3", "v_1", "v_2", "v_3"}
         assert 'Attribute Name="displacement"' in (shared_tmp / "fields.xdmf").read_text()
 
 
