@@ -104,9 +104,11 @@ class SmoothHausdorff:
 
     def _soft(self, queries, grid: kernels.SourceGrid, gmin: np.ndarray, total_weight: float):
         radius = self._cutoff_radius(gmin)
-        Z, V = kernels.soft_values(queries, grid.xyz, grid.weights, grid.origin, grid.cell,
-                                   grid.shape, grid.start, gmin, radius, self.alpha,
-                                   self.rational)
+        order = grid.locality_order(queries)
+        Z, V = np.empty(len(queries)), np.empty((len(queries), 3))
+        Z[order], V[order] = kernels.soft_values(
+            np.ascontiguousarray(queries[order]), grid.xyz, grid.weights, grid.origin, grid.cell,
+            grid.shape, grid.start, gmin[order], radius[order], self.alpha, self.rational)
         s = gmin - np.log(Z / total_weight) / self.alpha
         return s, Z, V, gmin, radius
 
@@ -155,9 +157,11 @@ class SmoothHausdorff:
         c_t = D1 ** (1 - beta) * wt_own * np.maximum(d_t, tiny) ** (beta - 1) / WT
         coef = c_t * mu_t / Z_t
         nchunks = max(1, min(8, len(t_own)))
-        acc = kernels.soft_source_gradient(t_own, grid_b.xyz, grid_b.origin,
-                                           grid_b.cell, grid_b.shape, grid_b.start, gmin_t,
-                                           rad_t, alpha, self.rational, coef, nchunks)
+        order = grid_b.locality_order(t_own)
+        acc = kernels.soft_source_gradient(np.ascontiguousarray(t_own[order]), grid_b.xyz,
+                                           grid_b.origin, grid_b.cell, grid_b.shape,
+                                           grid_b.start, gmin_t[order], rad_t[order], alpha,
+                                           self.rational, coef[order], nchunks)
         full = np.empty_like(acc)
         full[grid_b.order] = acc  # back to the gathered order
         comm.Allreduce(MPI.IN_PLACE, full, op=MPI.SUM)

@@ -65,6 +65,12 @@ class SourceGrid:
     def ncells(self) -> int:
         return int(np.prod(self.shape))
 
+    def locality_order(self, queries: np.ndarray) -> np.ndarray:
+        """An order of the queries by grid cell: neighbours in turn reuse cached sources."""
+        idx = np.clip(((queries - self.origin) / self.cell).astype(np.int64), 0, self.shape - 1)
+        flat = (idx[:, 0] * self.shape[1] + idx[:, 1]) * self.shape[2] + idx[:, 2]
+        return np.argsort(flat, kind="stable")
+
 
 def _as3(points: np.ndarray) -> np.ndarray:
     pts = np.asarray(points, dtype=np.float64)
