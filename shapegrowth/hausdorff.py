@@ -56,6 +56,22 @@ class PointCloud:
 
 
 @dataclass
+class _Direction:
+    """One of the two directed terms of (2.9) and what its gradient needs."""
+
+    mean: float  # D1 or D2
+    d: np.ndarray  # soft distances of this rank's queries
+    mu: np.ndarray  # dd/ds
+    Z: np.ndarray
+    V: np.ndarray
+    gmin: np.ndarray
+    radius: np.ndarray
+    grid: kernels.SourceGrid
+    q_total: float  # total weight of the queries (all ranks)
+    s_total: float  # total weight of the sources
+
+
+@dataclass
 class HausdorffResult:
     value: float
     d_target_to_body: float  # D1
@@ -102,15 +118,31 @@ class SmoothHausdorff:
             float(np.median(radius)) if use else None)
         return kernels.SourceGrid.build(sources, weights, cell)
 
-    def _soft(self, queries, grid: kernels.SourceGrid, gmin: np.ndarray, total_weight: float):
+    def _mean_distance(self, queries, q_weights, sources, s_weights, comm) -> "_Direction":
+        """Soft distances of this rank's ``queries`` to all ``sources`` and their beta-mean
+        over all ranks' queries (D1 or D2 of (2.9))."""
+        gmin = self._g(cKDTree(sources).query(queries, k=1)[0])
         radius = self._cutoff_radius(gmin)
+        grid = self._grid(sources, s_weights, radius)
         order = grid.locality_order(queries)
         Z, V = np.empty(len(queries)), np.empty((len(queries), 3))
         Z[order], V[order] = kernels.soft_values(
             np.ascontiguousarray(queries[order]), grid.xyz, grid.weights, grid.origin, grid.cell,
             grid.shape, grid.start, gmin[order], radius[order], self.alpha, self.rational)
-        s = gmin - np.log(Z / total_weight) / self.alpha
-        return s, Z, V, gmin, radius
+        total = float(s_weights.sum())
+        d, mu = self._distance(gmin - np.log(Z / total) / self.alpha)
+        q_total = comm.allreduce(float(q_weights.sum()), MPI.SUM)
+        A = comm.allreduce(float(np.sum(q_weights * d**self.beta)), MPI.SUM)
+        return _Direction((A / q_total) ** (1.0 / self.beta), d, mu, Z, V, gmin, radius, grid,
+                          q_total, total)
+
+    def soft_distance(self, points: np.ndarray, cloud: PointCloud) -> np.ndarray:
+        """The soft distance d_cloud(x) of (2.9) for each of ``points`` (serial)."""
+        queries = kernels._as3(np.atleast_2d(points))
+        sources = kernels._as3(cloud.points)
+        weights = np.asarray(cloud.weights, dtype=float)
+        return self._mean_distance(queries, np.ones(len(queries)), sources, weights,
+                                   MPI.COMM_SELF).d
 
     def __call__(self, body: PointCloud, target: PointCloud, comm: MPI.Comm = MPI.COMM_SELF,
                  gradient: bool = True) -> HausdorffResult:
@@ -119,23 +151,13 @@ class SmoothHausdorff:
         t_all, wt_all, _ = target.gathered(comm)
         b_own, wb_own = kernels._as3(body.points), np.asarray(body.weights, dtype=float)
         t_own, wt_own = kernels._as3(target.points), np.asarray(target.weights, dtype=float)
-        WB, WT = float(wb_all.sum()), float(wt_all.sum())
 
-        # D1: target points (own) against the whole body
-        gmin_t = self._g(cKDTree(b_all).query(t_own, k=1)[0])
-        grid_b = self._grid(b_all, wb_all, self._cutoff_radius(gmin_t))
-        s_t, Z_t, _, gmin_t, rad_t = self._soft(t_own, grid_b, gmin_t, WB)
-        d_t, mu_t = self._distance(s_t)
-        A1 = comm.allreduce(float(np.sum(wt_own * d_t**beta)), MPI.SUM)
-        D1 = (A1 / WT) ** (1.0 / beta)
-
-        # D2: body points (own) against the whole target
-        gmin_b = self._g(cKDTree(t_all).query(b_own, k=1)[0])
-        grid_t = self._grid(t_all, wt_all, self._cutoff_radius(gmin_b))
-        s_b, Z_b, V_b, _, _ = self._soft(b_own, grid_t, gmin_b, WT)
-        d_b, mu_b = self._distance(s_b)
-        A2 = comm.allreduce(float(np.sum(wb_own * d_b**beta)), MPI.SUM)
-        D2 = (A2 / WB) ** (1.0 / beta)
+        d1 = self._mean_distance(t_own, wt_own, b_all, wb_all, comm)  # target -> body
+        d2 = self._mean_distance(b_own, wb_own, t_all, wt_all, comm)  # body -> target
+        D1, D2, WB, WT = d1.mean, d2.mean, d2.q_total, d1.q_total
+        grid_b, grid_t = d1.grid, d2.grid
+        d_t, mu_t, Z_t, gmin_t, rad_t = d1.d, d1.mu, d1.Z, d1.gmin, d1.radius
+        d_b, mu_b, Z_b, V_b = d2.d, d2.mu, d2.Z, d2.V
 
         rho = (D1**gamma + D2**gamma) ** (1.0 / gamma)
         truncated = grid_b.ncells > 1 or grid_t.ncells > 1
