@@ -64,6 +64,26 @@ class ForwardModel:
         P = self.state.first_piola()
         return float(np.sqrt(max(self.integrate(ufl.inner(P, P)), 0.0)))
 
+    def residual_strain(self) -> ufl.core.expr.Expr:
+        """A^T A - I with A = F G^-1, the elastic strain the growth leaves: zero where the body
+        grew stress-free (compatible growth), nonzero where growth is incompatible."""
+        Ginv = self.state.applied.inverse_root()
+        A = self.state.deformation_gradient() * Ginv
+        return A.T * A - ufl.Identity(self.state.dim)
+
+    def residual_strain_norm(self) -> float:
+        """RMS of |A^T A - I| over the reference body: sqrt(int |E|^2 / |body|)."""
+        E = self.residual_strain()
+        one = dolfinx.fem.Constant(self.domain.mesh, 1.0)
+        return float(np.sqrt(max(self.integrate(ufl.inner(E, E)), 0.0) / self.integrate(one)))
+
+    def residual_strain_field(self) -> dolfinx.fem.Function:
+        """|A^T A - I| as a P1 field for fields.xdmf."""
+        f = dolfinx.fem.Function(compat.scalar_space(self.domain.mesh, 1), name="residual_strain")
+        E = self.residual_strain()
+        compat.interpolate_expression(f, ufl.sqrt(ufl.inner(E, E)))
+        return f
+
     def design_dofs(self) -> int:
         g = self.cfg.growth
         n_fields = len(g.eigenvalues.design) + (len(self.growth.angles) if g.frame == "free" else 0)
@@ -123,13 +143,15 @@ def solve_forward(cfg: Config, out: Path, probe_texts: list[str] = ()) -> tuple[
         u = compat.evaluate_at_points(model.state.u, probes)
         deformed = probes[:, :cfg.dim] + u
     with timer("io"):
-        io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied)
+        io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
+                        extra=[model.residual_strain_field()])
     summary = base_summary(cfg, model, report, status, timer)
     summary.update(shape)
     summary.update({
         "volume_reference": vol_ref,
         "volume_deformed": vol_def,
         "stress_l2": model.stress_norm(),
+        "residual_strain": model.residual_strain_norm(),
         "probes": [{"reference": p[:cfg.dim], "deformed": d} for p, d in zip(probes, deformed)],
     })
     io.write_json(out / "summary.json", summary)

@@ -121,6 +121,12 @@ class Growth:
         """The eigenvectors v_i as UFL vectors."""
         return frame_vectors(self.frame, ufl.SpatialCoordinate(self.mesh), self.dim, self.angles)
 
+    def inverse_root(self) -> ufl.core.expr.Expr:
+        """G^-1 = C_g^(-1/2) = sum_i lambda_i^(-1/2) v_i (x) v_i."""
+        lams = self.eigenvalue_exprs()
+        return sum((lam ** -0.5 * ufl.outer(v, v) for lam, v in zip(lams, self.vectors())),
+                   ufl.zero(self.dim, self.dim))
+
     def tensor(self) -> ufl.core.expr.Expr:
         """C_g (dim x dim) as a UFL expression of the fields."""
         lams = self.eigenvalue_exprs()

@@ -38,7 +38,8 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> tuple[dict[str, An
     with timer("io"):
         io.write_history(out, history)
         phi = io.deformation_field(model.state.u)
-        io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied, extra=[phi])
+        io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
+                        extra=[phi, model.residual_strain_field()])
     report = final.report if final else SolveReport(converged=False, reason="no state")
     summary = base_summary(cfg, model, report, status, timer)
     first = history[0] if history else None
@@ -55,6 +56,7 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> tuple[dict[str, An
         "newton_iterations_total": sum(r.newton_iterations for r in history),
         "dofs": {"state": compat.global_size(model.state.V), "design": optimizer.vec.size},
         "evaluations": rf.evaluations,
+        "residual_strain": model.residual_strain_norm(),
         "resumed": resume,
     })
     io.write_json(out / "summary.json", summary)

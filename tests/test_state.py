@@ -43,6 +43,7 @@ def test_uniform_growth_is_stress_free_with_volume_ratio(dim, shared_tmp):
     ratio = summary["volume_deformed"] / summary["volume_reference"]
     assert ratio == pytest.approx(s**dim, rel=1e-10)
     assert summary["stress_l2"] < 1e-9
+    assert summary["residual_strain"] < 1e-9  # grew stress-free: compatible
 
 
 @pytest.mark.mpi
@@ -129,7 +130,8 @@ def test_fields_file_holds_every_field(shared_tmp):
         with h5py.File(shared_tmp / "fields.h5") as h5:
             names = set(h5["Function"])
         assert names == {"displacement", "lambda_hat_1", "lambda_hat_2", "lambda_hat_3",
-                         "theta_hat_1", "theta_hat_2", "theta_hat_3", "v_1", "v_2", "v_3"}
+                         "theta_hat_1", "theta_hat_2", "theta_hat_3", "v_1", "v_2", "v_3",
+                         "residual_strain"}
         assert 'Attribute Name="displacement"' in (shared_tmp / "fields.xdmf").read_text()
 
 
@@ -142,6 +144,25 @@ def test_mesh_command_builds_then_reuses(shared_tmp):
     stamp = files[0].stat().st_mtime_ns
     assert run_cli(*args) == 0
     assert files[0].stat().st_mtime_ns == stamp
+
+
+def test_residual_strain_tells_compatible_from_incompatible_growth(tmp_path):
+    """|A^T A - I|, A = F G^-1: lambda_1 = 1 + 0.3 x1^2 is compatible (a stretch varying
+    along itself) and its residual strain falls like h^2 (5.3e-3, 1.4e-3, 3.4e-4 at
+    h = 0.5, 0.25, 0.125); lambda_1 = 1 + 0.3 x2 is not (the metric is curved) and it
+    settles at 1.05e-3."""
+    def residual(expr, h):
+        out = tmp_path / f"{h}-{len(expr)}"
+        assert run_cli("solve", CUBE, "--out", out, "-q", "--set",
+                       f"growth.eigenvalues.initial=[\"{expr}\", 1, 1]", "--set",
+                       f"mesh.size={h}", "--set", "model.degree=2",
+                       "--set", "growth.degree=2") == 0
+        return read_json(out / "summary.json")["residual_strain"]
+
+    compatible = [residual("1 + 0.3*x1**2", h) for h in (0.5, 0.25)]
+    incompatible = [residual("1 + 0.3*x2", h) for h in (0.5, 0.25)]
+    assert compatible[0] / compatible[1] > 3.0
+    assert incompatible[0] / incompatible[1] < 1.5 and incompatible[1] > 5e-4
 
 
 @pytest.mark.mpi
