@@ -22,7 +22,7 @@ sums over its own points, and the sums are reduced.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from mpi4py import MPI
@@ -68,7 +68,6 @@ class _Direction:
     radius: np.ndarray
     grid: kernels.SourceGrid
     q_total: float  # total weight of the queries (all ranks)
-    s_total: float  # total weight of the sources
 
 
 @dataclass
@@ -78,9 +77,7 @@ class HausdorffResult:
     d_body_to_target: float  # D2
     grad_points: np.ndarray | None = None  # d rho / d body points (own)
     grad_weights: np.ndarray | None = None  # d rho / d body weights (own)
-    pairs: int = 0  # pair evaluations made (all ranks)
     truncated: bool = False
-    stats: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -134,7 +131,7 @@ class SmoothHausdorff:
         q_total = comm.allreduce(float(q_weights.sum()), MPI.SUM)
         A = comm.allreduce(float(np.sum(q_weights * d**self.beta)), MPI.SUM)
         return _Direction((A / q_total) ** (1.0 / self.beta), d, mu, Z, V, gmin, radius, grid,
-                          q_total, total)
+                          q_total)
 
     def soft_distance(self, points: np.ndarray, cloud: PointCloud) -> np.ndarray:
         """The soft distance d_cloud(x) of (2.9) for each of ``points`` (serial)."""

@@ -154,7 +154,6 @@ class Optimizer:
         self.vec = GlobalVector(self.comm, rf.size)
         V = rf.model.state.V
         self.u_vec = GlobalVector(self.comm, V.dofmap.index_map.size_local * V.dofmap.index_map_bs)
-        self.history: list[Record] = []
         self.best: tuple[float, np.ndarray] | None = None
         self.failure: str | None = None
         self.checkpoint = Checkpoint(out / "checkpoint.h5", self.comm)
@@ -169,6 +168,11 @@ class Optimizer:
                                   f"ranks; resume with mpirun -n {self.replay.mpi_size}")
         self._tic = time.perf_counter()
         self._callback_time = 0.0
+
+    @property
+    def history(self) -> list[Record]:
+        """One record per iteration so far (kept by the checkpoint)."""
+        return self.checkpoint.history
 
     # ---- NLopt callback --------------------------------------------------------------------
     def _objective(self, x: np.ndarray, grad: np.ndarray) -> float:
@@ -186,11 +190,9 @@ class Optimizer:
             raise nlopt.ForcedStop(self.failure) from None
         if grad.size:
             grad[:] = g
-        self.history.append(record)
         self.checkpoint.add(x, f, g, record)
         if self.best is None or f < self.best[0]:
             self.best = (f, x.copy())
-            self.checkpoint.best_x = x.copy()
         if (k + 1) % self.cfg.output.checkpoint_every == 0:
             with self.rf.timer("io"):
                 self._write_checkpoint()
@@ -210,6 +212,7 @@ class Optimizer:
     def _write_checkpoint(self) -> None:
         u = self.rf.model.state.u
         self.checkpoint.state = self.u_vec.gather(u.x.array[:self.u_vec.counts[self.comm.rank]])
+        self.checkpoint.best_x = self.best[1] if self.best is not None else None
         self.checkpoint.write()
 
     def _restore_state(self, x: np.ndarray) -> None:

@@ -1,8 +1,8 @@
 """``shapegrowth run``: build the model, optimise, and write every output.
 
 Outputs in the run folder: summary.json, history.csv, history.png, fields.xdmf
-(+ .h5: displacement, Phi, the filtered growth fields lambda_i/theta_i, the
-eigenvectors v_i) and checkpoint.h5.
+(+ .h5: displacement, Phi, the filtered growth fields lambda_hat_i/theta_hat_i,
+the eigenvectors v_i, residual_strain) and checkpoint.h5.
 """
 
 from __future__ import annotations
