@@ -22,7 +22,7 @@ sums over its own points, and the sums are reduced.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from mpi4py import MPI
@@ -31,19 +31,31 @@ from scipy.spatial import cKDTree
 from . import kernels
 
 
+def _kdtree_workers() -> int:
+    """All cores for the nearest-neighbour queries in serial; one per rank under MPI."""
+    return -1 if MPI.COMM_WORLD.size == 1 else 1
+
+
 @dataclass
 class PointCloud:
-    """Points (n, dim) with positive weights (n,), the part owned by this rank."""
+    """Points (n, dim) with positive weights (n,), the part owned by this rank.
+
+    A cloud is treated as immutable: its gathered arrays and KD-tree are built once
+    and kept, so a target that is evaluated every iteration pays for them once."""
 
     points: np.ndarray
     weights: np.ndarray
+    _gathered: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
-    def gathered(self, comm: MPI.Comm) -> tuple[np.ndarray, np.ndarray, int]:
-        """All ranks' points and weights, and this rank's offset in them."""
-        pts = comm.allgather(np.ascontiguousarray(self.points, dtype=np.float64))
-        wts = comm.allgather(np.ascontiguousarray(self.weights, dtype=np.float64))
-        offset = sum(len(p) for p in pts[:comm.rank])
-        return kernels._as3(np.concatenate(pts)), np.concatenate(wts), offset
+    def gathered(self, comm: MPI.Comm) -> tuple[np.ndarray, np.ndarray, int, cKDTree]:
+        """All ranks' points and weights, this rank's offset in them, and their KD-tree."""
+        if self._gathered is None or self._gathered[0] != comm.py2f():
+            pts = comm.allgather(np.ascontiguousarray(self.points, dtype=np.float64))
+            wts = comm.allgather(np.ascontiguousarray(self.weights, dtype=np.float64))
+            offset = sum(len(p) for p in pts[:comm.rank])
+            xyz = kernels._as3(np.concatenate(pts))
+            self._gathered = (comm.py2f(), xyz, np.concatenate(wts), offset, cKDTree(xyz))
+        return self._gathered[1:]
 
     def extent(self, comm: MPI.Comm = MPI.COMM_SELF) -> float:
         """Largest extent of the cloud along a coordinate axis."""
@@ -115,17 +127,20 @@ class SmoothHausdorff:
             float(np.median(radius)) if use else None)
         return kernels.SourceGrid.build(sources, weights, cell)
 
-    def _mean_distance(self, queries, q_weights, sources, s_weights, comm) -> "_Direction":
-        """Soft distances of this rank's ``queries`` to all ``sources`` and their beta-mean
-        over all ranks' queries (D1 or D2 of (2.9))."""
-        gmin = self._g(cKDTree(sources).query(queries, k=1)[0])
+    def _mean_distance(self, queries, q_weights, sources, s_weights, tree, comm,
+                       query_gradient: bool = True) -> "_Direction":
+        """Soft distances of this rank's ``queries`` to all ``sources`` (with their KD-tree)
+        and their beta-mean over all ranks' queries (D1 or D2 of (2.9)); V only with
+        ``query_gradient``."""
+        gmin = self._g(tree.query(queries, k=1, workers=_kdtree_workers())[0])
         radius = self._cutoff_radius(gmin)
         grid = self._grid(sources, s_weights, radius)
         order = grid.locality_order(queries)
         Z, V = np.empty(len(queries)), np.empty((len(queries), 3))
         Z[order], V[order] = kernels.soft_values(
             np.ascontiguousarray(queries[order]), grid.xyz, grid.weights, grid.origin, grid.cell,
-            grid.shape, grid.start, gmin[order], radius[order], self.alpha, self.rational)
+            grid.shape, grid.start, gmin[order], radius[order], self.alpha, self.rational,
+            query_gradient)
         total = float(s_weights.sum())
         d, mu = self._distance(gmin - np.log(Z / total) / self.alpha)
         q_total = comm.allreduce(float(q_weights.sum()), MPI.SUM)
@@ -139,18 +154,20 @@ class SmoothHausdorff:
         sources = kernels._as3(cloud.points)
         weights = np.asarray(cloud.weights, dtype=float)
         return self._mean_distance(queries, np.ones(len(queries)), sources, weights,
-                                   MPI.COMM_SELF).d
+                                   cKDTree(sources), MPI.COMM_SELF).d
 
     def __call__(self, body: PointCloud, target: PointCloud, comm: MPI.Comm = MPI.COMM_SELF,
                  gradient: bool = True) -> HausdorffResult:
         alpha, beta, gamma = self.alpha, self.beta, self.gamma
-        b_all, wb_all, b_off = body.gathered(comm)
-        t_all, wt_all, _ = target.gathered(comm)
+        b_all, wb_all, b_off, b_tree = body.gathered(comm)
+        t_all, wt_all, _, t_tree = target.gathered(comm)
         b_own, wb_own = kernels._as3(body.points), np.asarray(body.weights, dtype=float)
         t_own, wt_own = kernels._as3(target.points), np.asarray(target.weights, dtype=float)
 
-        d1 = self._mean_distance(t_own, wt_own, b_all, wb_all, comm)  # target -> body
-        d2 = self._mean_distance(b_own, wb_own, t_all, wt_all, comm)  # body -> target
+        # target -> body: the target points do not move, only the sources' gradient is needed
+        d1 = self._mean_distance(t_own, wt_own, b_all, wb_all, b_tree, comm,
+                                 query_gradient=False)
+        d2 = self._mean_distance(b_own, wb_own, t_all, wt_all, t_tree, comm)  # body -> target
         D1, D2, WB, WT = d1.mean, d2.mean, d2.q_total, d1.q_total
         grid_b, grid_t = d1.grid, d2.grid
         d_t, mu_t, Z_t, gmin_t, rad_t = d1.d, d1.mu, d1.Z, d1.gmin, d1.radius
@@ -196,10 +213,10 @@ class SmoothHausdorff:
 
 def exact_hausdorff(a: PointCloud, b: PointCloud, comm: MPI.Comm = MPI.COMM_SELF) -> float:
     """Symmetric Hausdorff distance between two point sets (KD-tree)."""
-    a_all, _, _ = a.gathered(comm)
-    b_all, _, _ = b.gathered(comm)
-    d_ab = cKDTree(b_all).query(kernels._as3(a.points), k=1)[0]
-    d_ba = cKDTree(a_all).query(kernels._as3(b.points), k=1)[0]
+    a_tree = a.gathered(comm)[3]
+    b_tree = b.gathered(comm)[3]
+    d_ab = b_tree.query(kernels._as3(a.points), k=1, workers=_kdtree_workers())[0]
+    d_ba = a_tree.query(kernels._as3(b.points), k=1, workers=_kdtree_workers())[0]
     local = max(d_ab.max(initial=0.0), d_ba.max(initial=0.0))
     return comm.allreduce(float(local), MPI.MAX)
 

@@ -53,6 +53,27 @@ def test_taylor_in_points_and_weights(phi, truncate, dim):
     assert result.min_rate > 1.9, result.rates
 
 
+def test_vectorised_exp_matches_libm():
+    """The kernels' exp (Taylor polynomial after range reduction, 2^n built in the bits)
+    against numpy's on the clamped range [-100, 0] and at its ends."""
+    from shapegrowth.kernels import exp_array
+
+    x = np.concatenate([-100.0 * RNG.random(100000), np.linspace(-100.0, 0.0, 20001),
+                        [0.0, -0.0, -1e-300, -100.0]])
+    assert np.max(np.abs(exp_array(x) / np.exp(x) - 1.0)) < 1e-15
+
+
+def test_a_kept_target_gives_the_numbers_of_a_fresh_one():
+    """The target's gathered points and KD-tree are built once and kept."""
+    a, b = clouds()
+    H = SmoothHausdorff(alpha=30.0)
+    first = H(a, b)
+    again = H(PointCloud(a.points.copy(), a.weights.copy()), b)
+    fresh = H(a, PointCloud(b.points.copy(), b.weights.copy()))
+    assert first.value == again.value == fresh.value
+    assert np.array_equal(again.grad_points, fresh.grad_points)
+
+
 def test_symmetric_in_its_arguments():
     a, b = clouds()
     H = SmoothHausdorff(alpha=30.0, beta=3.0, gamma=1.5)
