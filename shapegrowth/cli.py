@@ -39,16 +39,17 @@ def _parser() -> argparse.ArgumentParser:
         prog="shapegrowth",
         description="Shape programming by differential growth (growth-modulated Mooney-Rivlin).")
     parser.add_argument("--version", action="version", version=f"shapegrowth {__version__}")
-    common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("config", help="YAML config file")
-    common.add_argument("--set", dest="overrides", action="append", default=[],
+    options = argparse.ArgumentParser(add_help=False)
+    options.add_argument("--set", dest="overrides", action="append", default=[],
                         metavar="KEY=VALUE",
                         help="override a config entry (dotted key, YAML value); repeatable")
-    common.add_argument("--out", type=Path, default=None,
+    options.add_argument("--out", type=Path, default=None,
                         help="output folder (default: the config's output.dir)")
-    noise = common.add_mutually_exclusive_group()
+    noise = options.add_mutually_exclusive_group()
     noise.add_argument("--quiet", "-q", action="store_true", help="only warnings and errors")
     noise.add_argument("--verbose", "-v", action="store_true", help="debug output")
+    common = argparse.ArgumentParser(add_help=False, parents=[options])
+    common.add_argument("config", help="YAML config file")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     sub.add_parser("validate", parents=[common], help="check a config, print every problem")
     sub.add_parser("mesh", parents=[common], help="build (or reuse) the gmsh mesh")
@@ -64,7 +65,29 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--seed", type=int, default=0, help="seed of the direction (default 0)")
     check.add_argument("--eps", type=float, default=1e-2, help="first step (default 1e-2)")
     check.add_argument("--steps", type=int, default=4, help="halvings of the step (default 4)")
+    bench = sub.add_parser("bench", parents=[options],
+                           help="the performance benchmark (bench.json)")
+    bench.add_argument("config", nargs="?", default=None,
+                       help="YAML config (default: configs/beam_wave.yaml with a growth near "
+                            "the optimum)")
+    bench.add_argument("--sizes", type=_sizes, default=None, metavar="H1,H2,...",
+                       help="mesh sizes, one case each (default 0.05,0.025,0.0125)")
+    bench.add_argument("--ranks", type=int, default=2,
+                       help="ranks of the MPI run of the largest case (1: none; default 2)")
+    bench.add_argument("--steps", type=int, default=3,
+                       help="optimisation-like iterations measured per case (default 3)")
+    bench.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
     return parser
+
+
+def _sizes(text: str) -> list[float]:
+    try:
+        sizes = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--sizes: numbers separated by commas, got {text!r}")
+    if not sizes or min(sizes) <= 0:
+        raise argparse.ArgumentTypeError(f"--sizes: positive mesh sizes, got {text!r}")
+    return sizes
 
 
 def _validate(cfg, args) -> int:
@@ -111,8 +134,30 @@ def _run(cfg, args) -> int:
     return status
 
 
+def _bench(cfg, args) -> int:
+    from . import bench, io
+
+    out = args.out or Path("results/bench")
+    if args.case:  # one case in this process (launched by the harness below)
+        io.write_json(out / "case.json", bench.measure_case(cfg, args.steps))
+        return EXIT_OK
+    result = bench.run_bench(Path(args.config), args.overrides, out,
+                             args.sizes or list(bench.DEFAULT_SIZES), args.ranks)
+    r = result["ratios"]
+    log.info("gradient/forward %.3f, rho_H/iteration %.3f, Newton/reference %.2f, "
+             "%.1f Newton iterations per step, scaling exponent %.2f",
+             r["gradient_over_forward"], r["hausdorff_over_iteration"],
+             r["newton_over_reference"], result["newton_iterations_per_step"],
+             result["scaling_exponent"])
+    if "speedup" in result["mpi"]:
+        log.info("mpirun -n %d speedup %.2f at %d DOFs", result["mpi"]["ranks"],
+                 result["mpi"]["speedup"], result["mpi"]["dofs"])
+    log.info("wrote %s", out / "bench.json")
+    return EXIT_OK
+
+
 COMMANDS = {"validate": _validate, "mesh": _mesh, "solve": _solve, "gradcheck": _gradcheck,
-            "run": _run}
+            "run": _run, "bench": _bench}
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:
@@ -138,6 +183,14 @@ def main(argv: list[str] | None = None) -> int:
 
     level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
     logs.configure(level)
+    if args.command == "bench" and args.config is None:
+        from .bench import DEFAULT_CONFIG, DEFAULT_OVERRIDES
+
+        if not DEFAULT_CONFIG.exists():
+            print("error: bench: give a CONFIG (configs/beam_wave.yaml is not beside the package)",
+                  file=sys.stderr)
+            return EXIT_BAD_INPUT
+        args.config, args.overrides = str(DEFAULT_CONFIG), DEFAULT_OVERRIDES + args.overrides
     try:
         cfg = load(args.config, args.overrides)
         return COMMANDS[args.command](cfg, args)

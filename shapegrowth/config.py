@@ -192,6 +192,9 @@ class SolverConfig:
                          "scale (mu1 + mu2 + lambda) |body|^((d-1)/d)", 1.0e-14, gt=0)
     stol: float = option("Newton stops when an update is below stol times the displacement",
                          1.0e-9, ge=0, lt=1)
+    adjoint_reuse: bool = option(
+        "solve the adjoint with the last Newton step's factorization, refined against the exact "
+        "tangent (false: assemble and factor the tangent anew)", True)
     continuation: ContinuationConfig = option("growth continuation and step cutting",
                                               ContinuationConfig())
     petsc_options: dict[str, str | float | int | bool] = option(

@@ -127,15 +127,16 @@ class ReducedFunctional:
         return self._last
 
     def _gradient(self, dJdu) -> np.ndarray:
-        with self.timer("adjoint"):
+        with self.timer("adjoint", "adjoint_solve"):
             self.adjoint.solve(dJdu)
+        with self.timer("adjoint", "sensitivities"):
             sens = self.adjoint.sensitivities()
             explicit = self.objective.explicit_growth_derivatives()
             if explicit is not None:
                 for s, e in zip(sens, explicit):
                     s.axpy(1.0, e)
         parts = []
-        with self.timer("filter"):
+        with self.timer("filter", "filter_backward"):
             for i in self._indices:
                 out = sens[i].duplicate()
                 self.filter.backward(sens[i], out)

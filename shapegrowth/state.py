@@ -114,6 +114,7 @@ class StateProblem:
         self.A = dolfinx.fem.petsc.create_matrix(self.jacobian_form)
         self.b = dolfinx.fem.petsc.create_vector(self.residual_form)
         self.snes = self._create_snes()
+        self.jacobian_assemblies = 0  # the SNES's linear solver holds factors once this is > 0
         self._at_rest = True
         self._equilibrium: list[np.ndarray] | None = None  # growth values of the last equilibrium
         self.initial_step_scale = 1.0  # a retry from rest may ask for smaller first steps
@@ -188,6 +189,7 @@ class StateProblem:
         A.zeroEntries()
         dolfinx.fem.petsc.assemble_matrix(A, self.jacobian_form, bcs=self.bcs)
         A.assemble()
+        self.jacobian_assemblies += 1
 
     def _newton(self) -> tuple[bool, int, str]:
         x = self.u.vector

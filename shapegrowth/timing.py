@@ -12,16 +12,23 @@ CATEGORIES = ("forward", "adjoint", "hausdorff", "filter", "optimizer", "io")
 
 @dataclass
 class Timer:
+    """Totals per category of ``time_split``; a ``detail`` name also collects its own
+    total (e.g. the filter's backward pass within "filter", for the benchmark)."""
+
     totals: dict[str, float] = field(default_factory=lambda: dict.fromkeys(CATEGORIES, 0.0))
+    details: dict[str, float] = field(default_factory=dict)
     start: float = field(default_factory=time.perf_counter)
 
     @contextmanager
-    def __call__(self, category: str) -> Iterator[None]:
+    def __call__(self, category: str, detail: str | None = None) -> Iterator[None]:
         tic = time.perf_counter()
         try:
             yield
         finally:
-            self.totals[category] += time.perf_counter() - tic
+            elapsed = time.perf_counter() - tic
+            self.totals[category] += elapsed
+            if detail is not None:
+                self.details[detail] = self.details.get(detail, 0.0) + elapsed
 
     @property
     def wall(self) -> float:
