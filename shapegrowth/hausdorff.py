@@ -46,16 +46,25 @@ class PointCloud:
     points: np.ndarray
     weights: np.ndarray
     _gathered: tuple | None = field(default=None, init=False, repr=False, compare=False)
+    _tree: cKDTree | None = field(default=None, init=False, repr=False, compare=False)
 
-    def gathered(self, comm: MPI.Comm) -> tuple[np.ndarray, np.ndarray, int, cKDTree]:
-        """All ranks' points and weights, this rank's offset in them, and their KD-tree."""
+    def gathered(self, comm: MPI.Comm) -> tuple[np.ndarray, np.ndarray, int]:
+        """All ranks' points and weights, and this rank's offset in them."""
         if self._gathered is None or self._gathered[0] != comm.py2f():
             pts = comm.allgather(np.ascontiguousarray(self.points, dtype=np.float64))
             wts = comm.allgather(np.ascontiguousarray(self.weights, dtype=np.float64))
             offset = sum(len(p) for p in pts[:comm.rank])
-            xyz = kernels._as3(np.concatenate(pts))
-            self._gathered = (comm.py2f(), xyz, np.concatenate(wts), offset, cKDTree(xyz))
+            self._gathered = (comm.py2f(), kernels._as3(np.concatenate(pts)),
+                              np.concatenate(wts), offset)
+            self._tree = None
         return self._gathered[1:]
+
+    def tree(self, comm: MPI.Comm) -> cKDTree:
+        """KD-tree of all ranks' points."""
+        points = self.gathered(comm)[0]
+        if self._tree is None:
+            self._tree = cKDTree(points)
+        return self._tree
 
     def extent(self, comm: MPI.Comm = MPI.COMM_SELF) -> float:
         """Largest extent of the cloud along a coordinate axis."""
@@ -80,6 +89,7 @@ class _Direction:
     radius: np.ndarray
     grid: kernels.SourceGrid
     q_total: float  # total weight of the queries (all ranks)
+    farthest: float  # largest nearest-source distance of a query (all ranks)
 
 
 @dataclass
@@ -87,6 +97,7 @@ class HausdorffResult:
     value: float
     d_target_to_body: float  # D1
     d_body_to_target: float  # D2
+    hausdorff: float  # the exact (symmetric) Hausdorff distance of the two clouds
     grad_points: np.ndarray | None = None  # d rho / d body points (own)
     grad_weights: np.ndarray | None = None  # d rho / d body weights (own)
     truncated: bool = False
@@ -127,26 +138,34 @@ class SmoothHausdorff:
             float(np.median(radius)) if use else None)
         return kernels.SourceGrid.build(sources, weights, cell)
 
-    def _mean_distance(self, queries, q_weights, sources, s_weights, tree, comm,
+    def _mean_distance(self, queries, q_weights, sources, s_weights, comm,
                        query_gradient: bool = True) -> "_Direction":
-        """Soft distances of this rank's ``queries`` to all ``sources`` (with their KD-tree)
-        and their beta-mean over all ranks' queries (D1 or D2 of (2.9)); V only with
-        ``query_gradient``."""
-        gmin = self._g(tree.query(queries, k=1, workers=_kdtree_workers())[0])
-        radius = self._cutoff_radius(gmin)
-        grid = self._grid(sources, s_weights, radius)
+        """Soft distances of this rank's ``queries`` to all ``sources`` and their beta-mean
+        over all ranks' queries (D1 or D2 of (2.9)); V only with ``query_gradient``.
+
+        The grid is sized from a sample of nearest distances; the exact nearest distances
+        (the shift g_min, and the exact Hausdorff distance for free) come from the grid."""
+        estimate = self._cutoff_radius(self._g(kernels.sample_nearest(queries, sources)))
+        grid = self._grid(sources, s_weights, estimate)
         order = grid.locality_order(queries)
+        ordered = np.ascontiguousarray(queries[order])
+        nearest = np.empty(len(queries))
+        nearest[order] = kernels.nearest_distance(ordered, grid.xyz, grid.origin, grid.cell,
+                                                  grid.shape, grid.start)
+        gmin = self._g(nearest)
+        radius = self._cutoff_radius(gmin)
         Z, V = np.empty(len(queries)), np.empty((len(queries), 3))
         Z[order], V[order] = kernels.soft_values(
-            np.ascontiguousarray(queries[order]), grid.xyz, grid.weights, grid.origin, grid.cell,
+            ordered, grid.xyz, grid.weights, grid.origin, grid.cell,
             grid.shape, grid.start, gmin[order], radius[order], self.alpha, self.rational,
             query_gradient)
         total = float(s_weights.sum())
         d, mu = self._distance(gmin - np.log(Z / total) / self.alpha)
         q_total = comm.allreduce(float(q_weights.sum()), MPI.SUM)
         A = comm.allreduce(float(np.sum(q_weights * d**self.beta)), MPI.SUM)
+        farthest = comm.allreduce(float(nearest.max(initial=0.0)), MPI.MAX)
         return _Direction((A / q_total) ** (1.0 / self.beta), d, mu, Z, V, gmin, radius, grid,
-                          q_total)
+                          q_total, farthest)
 
     def soft_distance(self, points: np.ndarray, cloud: PointCloud) -> np.ndarray:
         """The soft distance d_cloud(x) of (2.9) for each of ``points`` (serial)."""
@@ -154,20 +173,19 @@ class SmoothHausdorff:
         sources = kernels._as3(cloud.points)
         weights = np.asarray(cloud.weights, dtype=float)
         return self._mean_distance(queries, np.ones(len(queries)), sources, weights,
-                                   cKDTree(sources), MPI.COMM_SELF).d
+                                   MPI.COMM_SELF).d
 
     def __call__(self, body: PointCloud, target: PointCloud, comm: MPI.Comm = MPI.COMM_SELF,
                  gradient: bool = True) -> HausdorffResult:
         alpha, beta, gamma = self.alpha, self.beta, self.gamma
-        b_all, wb_all, b_off, b_tree = body.gathered(comm)
-        t_all, wt_all, _, t_tree = target.gathered(comm)
+        b_all, wb_all, b_off = body.gathered(comm)
+        t_all, wt_all, _ = target.gathered(comm)
         b_own, wb_own = kernels._as3(body.points), np.asarray(body.weights, dtype=float)
         t_own, wt_own = kernels._as3(target.points), np.asarray(target.weights, dtype=float)
 
         # target -> body: the target points do not move, only the sources' gradient is needed
-        d1 = self._mean_distance(t_own, wt_own, b_all, wb_all, b_tree, comm,
-                                 query_gradient=False)
-        d2 = self._mean_distance(b_own, wb_own, t_all, wt_all, t_tree, comm)  # body -> target
+        d1 = self._mean_distance(t_own, wt_own, b_all, wb_all, comm, query_gradient=False)
+        d2 = self._mean_distance(b_own, wb_own, t_all, wt_all, comm)  # body -> target
         D1, D2, WB, WT = d1.mean, d2.mean, d2.q_total, d1.q_total
         grid_b, grid_t = d1.grid, d2.grid
         d_t, mu_t, Z_t, gmin_t, rad_t = d1.d, d1.mu, d1.Z, d1.gmin, d1.radius
@@ -175,7 +193,8 @@ class SmoothHausdorff:
 
         rho = (D1**gamma + D2**gamma) ** (1.0 / gamma)
         truncated = grid_b.ncells > 1 or grid_t.ncells > 1
-        result = HausdorffResult(rho, D1, D2, truncated=truncated)
+        result = HausdorffResult(rho, D1, D2, max(d1.farthest, d2.farthest),
+                                 truncated=truncated)
         if not gradient:
             return result
 
@@ -213,8 +232,7 @@ class SmoothHausdorff:
 
 def exact_hausdorff(a: PointCloud, b: PointCloud, comm: MPI.Comm = MPI.COMM_SELF) -> float:
     """Symmetric Hausdorff distance between two point sets (KD-tree)."""
-    a_tree = a.gathered(comm)[3]
-    b_tree = b.gathered(comm)[3]
+    a_tree, b_tree = a.tree(comm), b.tree(comm)
     d_ab = b_tree.query(kernels._as3(a.points), k=1, workers=_kdtree_workers())[0]
     d_ba = a_tree.query(kernels._as3(b.points), k=1, workers=_kdtree_workers())[0]
     local = max(d_ab.max(initial=0.0), d_ba.max(initial=0.0))

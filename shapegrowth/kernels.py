@@ -24,10 +24,12 @@ with libm's scalar exp.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 
 import numba
 import numpy as np
+from mpi4py import MPI
 from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
@@ -36,6 +38,17 @@ CUTOFF = 20.0  # default cutoff c: a dropped term is below exp(-20) = 2e-9 of th
 # Exponents are clamped at 100: a term below exp(-100) of the largest changes nothing,
 # and exp takes a slow path for larger arguments (the brute force at alpha * size = 1000
 # ran at 2.2e8 pairs/s with the clamp at 600, 4.0e8 with it at 100).
+
+
+def _one_thread_per_rank() -> None:
+    """Under MPI the ranks already fill the cores: numba threads would oversubscribe them
+    (2 ranks x 2 threads on 2 cores: rho_H no faster than on one rank).  NUMBA_NUM_THREADS,
+    when set, decides."""
+    if MPI.COMM_WORLD.size > 1 and "NUMBA_NUM_THREADS" not in os.environ:
+        numba.set_num_threads(1)
+
+
+_one_thread_per_rank()
 
 
 @dataclass
@@ -87,6 +100,16 @@ def _as3(points: np.ndarray) -> np.ndarray:
     return out
 
 
+def sample_nearest(queries: np.ndarray, sources: np.ndarray, size: int = 512) -> np.ndarray:
+    """Nearest-source distances of an evenly strided sample of the queries (brute force):
+    enough to size the grid before the exact distances are computed on it."""
+    if len(queries) == 0 or len(sources) == 0:
+        return np.zeros(0)
+    sample = np.ascontiguousarray(queries[::max(1, len(queries) // size)])
+    grid = SourceGrid.build(sources, np.ones(len(sources)), None)
+    return nearest_distance(sample, grid.xyz, grid.origin, grid.cell, grid.shape, grid.start)
+
+
 def auto_cell(sources: np.ndarray, radii: np.ndarray) -> float | None:
     """Grid cell size for the given cutoff radii, or None when a grid would not prune."""
     pts = _as3(sources)
@@ -120,6 +143,57 @@ def _cell_range(q, radius, origin, cell, shape, k):
 # needs log1p from libm and keeps the scalar loop.
 _FAST = {"contract", "arcp", "afn"}
 _VECTOR = _FAST | {"reassoc"}
+_FAST_MIN = _VECTOR | {"nnan", "nsz"}  # squared distances of finite points: no NaN
+
+
+@numba.njit(cache=True, fastmath=_FAST_MIN)
+def _min_square(qx, qy, qz, xs, ys, zs):
+    best = np.inf
+    for j in range(xs.shape[0]):
+        dx = qx - xs[j]
+        dy = qy - ys[j]
+        dz = qz - zs[j]
+        best = min(best, dx * dx + dy * dy + dz * dz)
+    return best
+
+
+@numba.njit(parallel=True, cache=True)
+def nearest_distance(queries, xyz, origin, cell, shape, start):
+    """Distance from each query to its nearest source: the ball around the query doubles
+    from one cell until it holds a source no farther than its radius."""
+    n = queries.shape[0]
+    out = np.empty(n)
+    xs, ys, zs = xyz[0], xyz[1], xyz[2]
+    reach = cell * math.sqrt(float(shape[0] ** 2 + shape[1] ** 2 + shape[2] ** 2))
+    for i in numba.prange(n):
+        qx, qy, qz = queries[i, 0], queries[i, 1], queries[i, 2]
+        rho = cell
+        best = np.inf
+        while True:
+            x0, x1 = _cell_range(queries[i], rho, origin, cell, shape, 0)
+            y0, y1 = _cell_range(queries[i], rho, origin, cell, shape, 1)
+            for ix in range(x0, x1 + 1):
+                for iy in range(y0, y1 + 1):
+                    j0, j1 = _column(qx, qy, qz, rho, ix, iy, origin, cell, shape, start)
+                    best = min(best, _min_square(qx, qy, qz, xs[j0:j1], ys[j0:j1], zs[j0:j1]))
+            if best <= rho * rho or rho > 2.0 * reach + _distance_to_box(queries[i], origin,
+                                                                          cell, shape):
+                break
+            rho *= 2.0
+        out[i] = math.sqrt(best)
+    return out
+
+
+@numba.njit(cache=True, inline="always")
+def _distance_to_box(q, origin, cell, shape):
+    d = 0.0
+    for k in range(3):
+        lo = origin[k]
+        hi = origin[k] + shape[k] * cell
+        e = max(lo - q[k], 0.0, q[k] - hi)
+        d += e * e
+    return math.sqrt(d)
+
 
 _LOG2E = 1.4426950408889634
 _LN2_HI = 6.93147180369123816490e-01  # ln 2 split in two (Cody-Waite): n * _LN2_HI is exact

@@ -29,6 +29,7 @@ class ObjectiveValue:
     complexity: float
     d_target_to_body: float
     d_body_to_target: float
+    hausdorff: float  # exact Hausdorff distance of the clouds, a by-product of rho_H
 
 
 class Objective:
@@ -64,7 +65,8 @@ class Objective:
             complexity = self.comm.allreduce(
                 dolfinx.fem.assemble_scalar(self._complexity), MPI.SUM)
         value = ObjectiveValue(result.value + complexity, result.value, complexity,
-                               result.d_target_to_body, result.d_body_to_target)
+                               result.d_target_to_body, result.d_body_to_target,
+                               result.hausdorff)
         if not gradient:
             return value, None
         self._fill(result.grad_points, result.grad_weights)

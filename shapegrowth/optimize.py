@@ -234,9 +234,8 @@ class Optimizer:
             log.warning("iteration %d: %s; retrying from rest with smaller load steps", k, first)
             ev = self._retry_from_rest(local)
         g = self.vec.gather(ev.gradient)
-        with self.rf.timer("hausdorff"):
-            hausdorff = self.rf.objective.exact_hausdorff()
-        record = Record(k, ev.value.total, ev.value.rho_H, ev.value.complexity, hausdorff,
+        value = ev.value
+        record = Record(k, value.total, value.rho_H, value.complexity, value.hausdorff,
                         float(np.linalg.norm(g)), ev.report.newton_iterations,
                         time.perf_counter() - self._tic)
         log.info(_line(record))

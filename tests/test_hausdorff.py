@@ -63,6 +63,27 @@ def test_vectorised_exp_matches_libm():
     assert np.max(np.abs(exp_array(x) / np.exp(x) - 1.0)) < 1e-15
 
 
+@pytest.mark.parametrize("cell", [None, 0.03, 0.2])
+def test_grid_nearest_distances_are_the_kd_tree_ones(cell):
+    from scipy.spatial import cKDTree
+
+    from shapegrowth import kernels
+
+    sources = RNG.random((5000, 3)) * [1.0, 0.3, 0.05]
+    queries = RNG.random((3000, 3)) * [1.6, 0.8, 0.6] - [0.3, 0.2, 0.3]
+    grid = kernels.SourceGrid.build(sources, np.ones(len(sources)), cell)
+    near = kernels.nearest_distance(queries, grid.xyz, grid.origin, grid.cell, grid.shape,
+                                    grid.start)
+    assert np.allclose(near, cKDTree(sources).query(queries)[0], rtol=1e-15, atol=0)  # 1 ulp
+
+
+@pytest.mark.parametrize("truncate", [False, True])
+def test_exact_hausdorff_comes_with_rho(truncate):
+    a, b = clouds(4000, 3000)
+    result = SmoothHausdorff(alpha=300.0, truncate=truncate)(a, b)
+    assert result.hausdorff == pytest.approx(exact_hausdorff(a, b), rel=1e-15)
+
+
 def test_a_kept_target_gives_the_numbers_of_a_fresh_one():
     """The target's gathered points and KD-tree are built once and kept."""
     a, b = clouds()
