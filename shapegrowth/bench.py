@@ -170,14 +170,17 @@ def _mpirun(ranks: int) -> list[str]:
 
 
 def _run_case_process(config: Path, overrides: list[str], size: float, out: Path,
-                      ranks: int) -> dict[str, Any]:
-    """Runs one case in a fresh process (under mpirun when ranks > 1) and reads its json."""
+                      ranks: int, one_thread: bool = False) -> dict[str, Any]:
+    """Runs one case in a fresh process (under mpirun when ranks > 1) and reads its json.
+    ``one_thread``: one BLAS and one numba thread (what each MPI rank gets)."""
     out.mkdir(parents=True, exist_ok=True)
     cmd = [sys.executable, "-m", "shapegrowth", "bench", str(config), "--case",
            "--out", str(out), "--quiet", "--set", f"mesh.size={size}"]
     for item in overrides:
         cmd += ["--set", item]
     env = dict(os.environ)
+    if one_thread:
+        env.update({"OPENBLAS_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"})
     if ranks > 1:
         cmd = _mpirun(ranks) + cmd
         env.update({"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
@@ -222,9 +225,19 @@ def run_bench(config: Path, overrides: list[str], out: Path, sizes: list[float],
         log.info("bench: mesh size %g on %d ranks ...", largest["mesh_size"], ranks)
         parallel = _run_case_process(config, overrides, largest["mesh_size"],
                                      out / f"case-{largest['mesh_size']:g}-np{ranks}", ranks)
+        # The serial run already uses every core through threads (OpenBLAS in MUMPS,
+        # numba in rho_H); against one thread the speedup is that of the ranks alone.
+        log.info("bench: mesh size %g on 1 rank, one thread ...", largest["mesh_size"])
+        single = _run_case_process(config, overrides, largest["mesh_size"],
+                                   out / f"case-{largest['mesh_size']:g}-1thread", 1,
+                                   one_thread=True)
         result["mpi"].update({"dofs": parallel["dofs"], "iteration_s": parallel["iteration_s"],
                               "serial_iteration_s": largest["iteration_s"],
                               "speedup": largest["iteration_s"] / parallel["iteration_s"],
-                              "case": parallel})
+                              "one_thread_iteration_s": single["iteration_s"],
+                              "speedup_over_one_thread":
+                                  single["iteration_s"] / parallel["iteration_s"],
+                              "forward_speedup": largest["forward_s"] / parallel["forward_s"],
+                              "case": parallel, "one_thread_case": single})
     io.write_json(out / "bench.json", result)
     return result

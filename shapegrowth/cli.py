@@ -65,6 +65,13 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--seed", type=int, default=0, help="seed of the direction (default 0)")
     check.add_argument("--eps", type=float, default=1e-2, help="first step (default 1e-2)")
     check.add_argument("--steps", type=int, default=4, help="halvings of the step (default 4)")
+    study = sub.add_parser("study", parents=[common],
+                           help="a grid of settings: accuracy against cost (study.csv, study.png)")
+    study.add_argument("--sweep", action="append", default=[], metavar="KEY=V1,V2,...",
+                       help="a config key and its values; repeatable (the grid is the product)")
+    study.add_argument("--reference", action="append", default=[], metavar="KEY=VALUE",
+                       help="override of the reference discretisation the optima are judged "
+                            "on (default: the finest swept resolution); repeatable")
     bench = sub.add_parser("bench", parents=[options],
                            help="the performance benchmark (bench.json)")
     bench.add_argument("config", nargs="?", default=None,
@@ -126,12 +133,36 @@ def _run(cfg, args) -> int:
     from .runner import run_optimization
 
     try:
-        _, status = run_optimization(cfg, args.out or cfg.output_dir, args.resume)
+        status = run_optimization(cfg, args.out or cfg.output_dir, args.resume).exit_status
     except ResumeError as err:
         from .forward import InputError
 
         raise InputError(str(err)) from None
     return status
+
+
+def _study(cfg, args) -> int:
+    from .config import ConfigError, load
+    from .study import Sweep, run_study
+
+    if not args.sweep:
+        raise ConfigError(["study: give at least one --sweep KEY=V1,V2,..."])
+    sweeps = [Sweep.parse(text) for text in args.sweep]
+    errors = []  # every value must make a valid config: all problems at once
+    for sweep in sweeps:
+        for value in sweep.values:
+            try:
+                load(args.config, args.overrides + [f"{sweep.key}={value}"])
+            except ConfigError as err:
+                errors += [f"--sweep {sweep.key}={value}: {e}" for e in err.problems]
+    if errors:
+        raise ConfigError(errors)
+    out = args.out or cfg.output_dir
+    rows = run_study(Path(args.config), args.overrides, sweeps, out, args.reference)
+    failed = [r for r in rows if str(r["status"]).startswith("failed")]
+    log.info("wrote %s and %s (%d points, %d failed)", out / "study.csv", out / "study.png",
+             len(rows), len(failed))
+    return EXIT_FAILED if failed else EXIT_OK
 
 
 def _bench(cfg, args) -> int:
@@ -150,14 +181,15 @@ def _bench(cfg, args) -> int:
              r["newton_over_reference"], result["newton_iterations_per_step"],
              result["scaling_exponent"])
     if "speedup" in result["mpi"]:
-        log.info("mpirun -n %d speedup %.2f at %d DOFs", result["mpi"]["ranks"],
-                 result["mpi"]["speedup"], result["mpi"]["dofs"])
+        mpi = result["mpi"]
+        log.info("mpirun -n %d speedup %.2f at %d DOFs (%.2f over one thread on one rank)",
+                 mpi["ranks"], mpi["speedup"], mpi["dofs"], mpi["speedup_over_one_thread"])
     log.info("wrote %s", out / "bench.json")
     return EXIT_OK
 
 
 COMMANDS = {"validate": _validate, "mesh": _mesh, "solve": _solve, "gradcheck": _gradcheck,
-            "run": _run, "bench": _bench}
+            "run": _run, "study": _study, "bench": _bench}
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:

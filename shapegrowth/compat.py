@@ -88,10 +88,10 @@ def evaluate_at_points(u: dolfinx.fem.Function, points: np.ndarray) -> np.ndarra
     candidates = dolfinx.geometry.compute_collisions(tree, points)
     colliding = dolfinx.geometry.compute_colliding_cells(mesh, candidates, points)
     local = np.full((len(points), value_size), np.nan)
-    for i in range(len(points)):
-        cells = colliding.links(i)
-        if len(cells):
-            local[i] = u.eval(points[i], cells[:1])
+    found = [i for i in range(len(points)) if len(colliding.links(i))]
+    if found:
+        cells = np.array([colliding.links(i)[0] for i in found], dtype=np.int32)
+        local[found] = u.eval(points[found], cells).reshape(len(found), value_size)
     gathered = comm.allgather(local)
     result = np.full_like(local, np.nan)
     for values in gathered:

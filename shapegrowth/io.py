@@ -33,6 +33,10 @@ def write_json(path: Path, data: dict[str, Any], comm: MPI.Comm = MPI.COMM_WORLD
     comm.barrier()
 
 
+def read_json(path: Path) -> dict[str, Any]:
+    return json.loads(Path(path).read_text())
+
+
 def _clean(value: Any) -> Any:
     if isinstance(value, dict):
         return {str(k): _clean(v) for k, v in value.items()}

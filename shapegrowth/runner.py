@@ -8,6 +8,7 @@ the eigenvectors v_i, residual_strain) and checkpoint.h5.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +22,14 @@ from .timing import Timer
 log = logging.getLogger(__name__)
 
 
-def run_optimization(cfg, out: Path, resume: bool = False) -> tuple[dict[str, Any], int]:
+@dataclass
+class RunResult:
+    summary: dict[str, Any]
+    exit_status: int  # 0, or 1 for a failed run
+    model: ForwardModel  # left at the best design
+
+
+def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     timer = Timer()
     with timer("forward"):
         model = ForwardModel.build(cfg)
@@ -68,5 +76,5 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> tuple[dict[str, An
     log.info("results in %s: summary.json, history.csv, history.png, fields.xdmf", out)
     log.info("view: paraview %s, Filters > Warp By Vector (displacement), colour by lambda_hat_1",
              out / "fields.xdmf")
-    return summary, 0 if not status.startswith("failed") else 1
+    return RunResult(summary, 0 if not status.startswith("failed") else 1, model)
 
