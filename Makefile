@@ -14,12 +14,14 @@ export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 export OMPI_MCA_rmaps_base_oversubscribe := 1
 MPIRUN := mpirun -n $(NP)
 
-.PHONY: setup run bend test test-serial test-mpi clean help
+.PHONY: setup run bend test test-serial test-mpi notebooks bench reference-docs clean help
 
 help:
 	@echo "make run    - the default scene end to end (installs what is missing)"
 	@echo "make bend   - the forward model alone: a beam bent into a half circle"
-	@echo "make test   - the test suite, serial and under mpirun -n $(NP)"
+	@echo "make test   - the test suite, serial and under mpirun -n $(NP), and the notebooks"
+	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
+	@echo "make bench  - the performance benchmark (results/bench/bench.json, minutes)"
 	@echo "make setup  - Debian packages and .venv only"
 
 setup: $(STAMP)
@@ -38,7 +40,7 @@ bend: setup
 	$(BIN)/shapegrowth solve configs/beam_bend.yaml --probe 1,0,0
 
 test: setup
-	@$(MAKE) --no-print-directory test-serial test-mpi
+	@$(MAKE) --no-print-directory test-serial test-mpi notebooks
 
 test-serial:
 	$(BIN)/python -m pytest -q tests
@@ -50,6 +52,24 @@ test-serial:
 test-mpi:
 	@OPENBLAS_NUM_THREADS=1 timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(BIN)/python -m pytest -q --color=no -m mpi tests \
 	  || { tail -n 40 .cache/rank-*.log; exit 1; }
+
+# The notebooks: executed from their jupytext sources (the .ipynb are rewritten with
+# their outputs), then each source run as a script under mpirun.
+notebooks: setup
+	$(BIN)/python scripts/run_notebooks.py
+	@mkdir -p .cache
+	@for nb in notebooks/[0-9]*.py; do \
+	  echo "$$nb under mpirun -n $(NP)"; \
+	  MPLBACKEND=Agg OPENBLAS_NUM_THREADS=1 timeout 900 $(MPIRUN) $(BIN)/python $$nb > .cache/notebook-mpi.log 2>&1 \
+	    || { tail -n 40 .cache/notebook-mpi.log; exit 1; }; \
+	done
+
+bench: setup
+	$(BIN)/shapegrowth bench
+
+# docs/CONFIG.md from the schema (a test checks that it is current)
+reference-docs: setup
+	$(BIN)/python scripts/config_reference.py
 
 clean:
 	rm -rf results .cache meshes/*.msh meshes/*.json

@@ -9,6 +9,7 @@ cd "$(dirname "$0")/.."
 APT_PACKAGES=(
   python3-dolfinx-real python3-gmsh python3-nlopt python3-h5py python3-venv
   python3-yaml python3-matplotlib python3-scipy python3-pytest
+  python3-nbclient python3-nbformat python3-ipykernel
   libopenblas0-pthread openmpi-bin
 )
 
@@ -37,5 +38,11 @@ fi
 # Pin Debian's numpy so that pip never replaces it under the compiled modules.
 .venv/bin/python -c "import numpy; print(f'numpy=={numpy.__version__}')" > constraints.txt
 echo "setup: installing shapegrowth (editable) into .venv"
-PIP_DISABLE_PIP_VERSION_CHECK=1 .venv/bin/pip install -q --no-build-isolation -c constraints.txt -e ".[test]"
+PIP_DISABLE_PIP_VERSION_CHECK=1 .venv/bin/pip install -q --no-build-isolation -c constraints.txt -e ".[test,notebooks]"
+# The notebooks' kernel "python3" must be this environment's python (Debian's own
+# kernelspec would start /usr/bin/python3, which lacks numba); .venv's spec wins.
+if [ ! -f .venv/share/jupyter/kernels/python3/kernel.json ]; then
+  .venv/bin/python -m ipykernel install --sys-prefix --name python3 \
+    --display-name "Python 3 (shapegrowth .venv)" > /dev/null
+fi
 .venv/bin/python -c "import dolfinx, shapegrowth; print(f'setup: ok (dolfinx {dolfinx.__version__}, shapegrowth {shapegrowth.__version__})')"

@@ -115,3 +115,11 @@ def set_option(opts, key: str, value) -> None:
         opts.delValue(key)
     else:
         opts[key] = "" if value is True else value
+
+
+def entities_to_geometry(mesh, dim: int, entities: np.ndarray) -> np.ndarray:
+    """Geometry node indices of mesh entities (Debian's dolfinx.mesh.Mesh wraps the C++
+    mesh in ``_mesh`` instead of deriving from it)."""
+    cpp = getattr(mesh, "_mesh", getattr(mesh, "_cpp_object", mesh))
+    return dolfinx.cpp.mesh.entities_to_geometry(cpp, dim, np.asarray(entities, np.int32),
+                                                 False)

@@ -319,3 +319,15 @@ def apply_overrides(raw: dict[str, Any], overrides: list[str] | tuple[str, ...],
             node = node[part]
         node[parts[-1]] = value
     return raw
+
+
+def reference_text() -> str:
+    """docs/CONFIG.md: every key with its type, default, allowed values and meaning."""
+    from .schema import reference_markdown
+
+    return reference_markdown(
+        Config, "Config reference",
+        "Generated from the schema in `shapegrowth/config.py` by "
+        "`scripts/config_reference.py` (a test fails when this file and the schema differ). "
+        "Keys are dotted paths: `--set mesh.size=0.05` overrides one. Numbers may be written "
+        "`1e-7`; growth initial values and target maps may be expressions (see README).")

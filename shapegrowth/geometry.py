@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from .config import BOUNDARIES, GEOMETRY_PARAMS, LAYERED, Config
+from .config import BOUNDARIES, GEOMETRY_PARAMS, LAYERED, Config, ConfigError
 
 log = logging.getLogger(__name__)
 
@@ -98,7 +98,30 @@ def load_domain(cfg: Config, comm: MPI.Comm = MPI.COMM_WORLD) -> Domain:
     boundaries = {name: i + 1 for i, name in enumerate(BOUNDARIES[cfg.geometry.kind])}
     cells = comm.allreduce(mesh.topology.index_map(mesh.topology.dim).size_local, MPI.SUM)
     log.info("mesh %s: %d cells%s", path, cells, " (built)" if built else " (cached)")
+    check_cells(mesh)
     return Domain(mesh, facet_tags, boundaries, cfg.geometry.kind, path)
+
+
+def check_cells(mesh, flat: float = 1e-8) -> None:
+    """Refuse meshes with flat (or collapsed) cells: |det J| below ``flat`` times the
+    median.  Newton would meet a singular tangent there, far from the cause."""
+    import dolfinx.fem
+    import ufl
+
+    from .compat import interpolate_expression
+
+    dg0 = dolfinx.fem.Function(dolfinx.fem.FunctionSpace(mesh, ("DG", 0)))
+    interpolate_expression(dg0, abs(ufl.JacobianDeterminant(mesh)))
+    n = mesh.topology.index_map(mesh.topology.dim).size_local
+    det = dg0.x.array[:n]
+    comm = mesh.comm
+    every = np.concatenate(comm.allgather(det))
+    median = float(np.median(every)) if len(every) else 0.0
+    bad = int(np.sum(every <= flat * median)) if median > 0 else len(every)
+    if bad:
+        raise ConfigError([f"mesh.size: {bad} of {len(every)} cells are flat or collapsed "
+                           f"(volume below {flat:g} of the median); refine the mesh or check "
+                           "the geometry"])
 
 
 # ---- gmsh builders (rank 0 only) ---------------------------------------------------------

@@ -95,12 +95,11 @@ def write_history(out: Path, records, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
         for r in records:
             lines.append(",".join(repr(getattr(r, c)) for c in HISTORY_COLUMNS))
         (out / "history.csv").write_text("\n".join(lines) + "\n")
-        import matplotlib
+        # a Figure of its own: no pyplot, so a notebook's backend is left alone
+        from matplotlib.figure import Figure
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(5.5, 3.6), dpi=120)
+        fig = Figure(figsize=(5.5, 3.6), dpi=120)
+        ax = fig.subplots()
         it = [r.iteration for r in records]
         ax.semilogy(it, [r.objective for r in records], "o-", ms=3, label="objective J")
         ax.semilogy(it, [r.hausdorff for r in records], "s--", ms=3, alpha=0.7,
@@ -111,7 +110,6 @@ def write_history(out: Path, records, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
         ax.legend()
         fig.tight_layout()
         fig.savefig(out / "history.png")
-        plt.close(fig)
     comm.barrier()
 
 

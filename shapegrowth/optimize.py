@@ -188,6 +188,12 @@ class Optimizer:
         except StateSolveError as err:
             self.failure = f"state solve failed at iteration {k}: {err}"
             raise nlopt.ForcedStop(self.failure) from None
+        if not (np.isfinite(f) and np.isfinite(g).all()):
+            # never hand NaN or inf to NLopt: it would wander off with them silently
+            bad = "objective" if not np.isfinite(f) else "gradient"
+            self.failure = f"non-finite {bad} at iteration {k} (J = {f}); stopped at the best design"
+            log.error(self.failure)
+            raise nlopt.ForcedStop(self.failure)
         if grad.size:
             grad[:] = g
         self.checkpoint.add(x, f, g, record)

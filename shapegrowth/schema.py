@@ -217,3 +217,59 @@ def field_paths(cls: type, prefix: str = "") -> dict[str, Any]:
             if dataclasses.is_dataclass(candidate):
                 paths.update(field_paths(candidate, key + "."))
     return paths
+
+
+def reference_markdown(cls: type, title: str, intro: str) -> str:
+    """The config reference as Markdown, one table per section, from the fields' metadata
+    (docs/CONFIG.md is this text; a test keeps them equal)."""
+    lines = [f"# {title}", "", intro, ""]
+    _reference_section(cls, "", lines)
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def _reference_section(cls: type, prefix: str, lines: list[str]) -> None:
+    hints = typing.get_type_hints(cls)
+    rows, sections = [], []
+    for f in dataclasses.fields(cls):
+        tp, meta = hints[f.name], f.metadata
+        key = f"{prefix}{f.name}"
+        inner = [a for a in typing.get_args(tp) if a is not type(None)] or [tp]
+        nested = next((a for a in inner if dataclasses.is_dataclass(a)), None)
+        if nested is not None:
+            sections.append((key, nested, meta.get("help", "")))
+            continue
+        if f.default is not MISSING:
+            default = f"`{_yaml(f.default)}`"
+        elif f.default_factory is not MISSING:
+            default = f"`{_yaml(f.default_factory())}`"
+        else:
+            default = "required"
+        allowed = describe(tp)
+        if meta.get("choices"):
+            allowed = "one of " + ", ".join(f"`{c}`" for c in meta["choices"])
+        bounds = [f"{sign} {meta[k]}" for k, sign in (("gt", ">"), ("ge", ">="), ("lt", "<"),
+                                                      ("le", "<=")) if meta.get(k) is not None]
+        if bounds:
+            allowed += " (" + ", ".join(bounds) + ")"
+        rows.append(f"| `{key}` | {allowed} | {default} | {meta.get('help', '')} |")
+    if rows:
+        title = f"`{prefix.rstrip('.')}`" if prefix else "Top level"
+        lines += [f"## {title}", "",
+                  "| key | allowed | default | meaning |", "| --- | --- | --- | --- |", *rows, ""]
+    for key, nested, help_text in sections:
+        lines_before = len(lines)
+        _reference_section(nested, key + ".", lines)
+        if len(lines) > lines_before and help_text:
+            lines.insert(lines_before + 2, f"{help_text[0].upper()}{help_text[1:]}.\n")
+
+
+def _yaml(value: Any) -> str:
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_yaml(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k}: {_yaml(v)}" for k, v in value.items()) + "}"
+    return str(value)

@@ -203,15 +203,14 @@ def write_study(out: Path, keys: list[str], rows: list[dict], comm: MPI.Comm) ->
 
 
 def _plot(path: Path, keys: list[str], rows: list[dict]) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    # a Figure of its own: no pyplot, so a notebook's backend is left alone
+    from matplotlib.figure import Figure
 
     cost = np.array([r["wall_time_s"] for r in rows], dtype=float)
     error = np.array([r["relative_error_reference"] or np.nan for r in rows], dtype=float)
     ok = np.isfinite(error)
-    fig, ax = plt.subplots(figsize=(6.0, 4.0), dpi=120)
+    fig = Figure(figsize=(6.0, 4.0), dpi=120)
+    ax = fig.subplots()
     ax.loglog(cost[ok], 100 * error[ok], "o", color="0.55", label="grid points")
     if ok.any():
         idx = np.flatnonzero(ok)[pareto_front(cost[ok], error[ok])]
@@ -226,4 +225,3 @@ def _plot(path: Path, keys: list[str], rows: list[dict]) -> None:
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)

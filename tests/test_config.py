@@ -125,3 +125,11 @@ def test_cli_bad_input_prints_no_traceback(tmp_path):
     assert result.stderr.strip().startswith("error: growth.eigenvalues.initial[0]:")
     assert len(result.stderr.strip().splitlines()) == 1
     assert not marker.exists()
+
+
+def test_the_config_reference_is_generated_from_the_schema():
+    """docs/CONFIG.md cannot drift: regenerate it with scripts/config_reference.py."""
+    from conftest import ROOT
+    from shapegrowth.config import reference_text
+
+    assert (ROOT / "docs" / "CONFIG.md").read_text() == reference_text()

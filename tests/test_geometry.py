@@ -92,3 +92,21 @@ def test_cache_is_keyed_by_parameters(tmp_path):
     stamp = mesh_path(a).stat().st_mtime_ns
     load_domain(a, MPI.COMM_SELF)
     assert mesh_path(a).stat().st_mtime_ns == stamp  # reused, not rebuilt
+
+
+@pytest.mark.parametrize("squash", [0.0, 1e-10])
+def test_a_mesh_with_a_flat_cell_is_refused_with_one_clear_line(squash):
+    """Two tetrahedra on a shared face; the apex of the second pushed into that face."""
+    import dolfinx.mesh
+
+    from shapegrowth.config import ConfigError
+    from shapegrowth.geometry import check_cells
+
+    x = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.3, 0.3, squash]], float)
+    cells = np.array([[0, 1, 2, 3], [0, 1, 2, 4]], np.int64)
+    if MPI.COMM_WORLD.rank:
+        x, cells = np.zeros((0, 3)), np.zeros((0, 4), np.int64)
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", "tetrahedron", 1))
+    mesh = dolfinx.mesh.create_mesh(MPI.COMM_WORLD, cells, x, domain)
+    with pytest.raises(ConfigError, match=r"mesh.size: 1 of 2 cells are flat or collapsed"):
+        check_cells(mesh)

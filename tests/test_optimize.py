@@ -167,3 +167,25 @@ def test_broken_yaml_and_missing_file_through_the_cli(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert err[0].startswith("error: config: broken YAML") and "line" in err[0]
     assert err[1] == f"error: config: file '{tmp_path / 'missing.yaml'}' not found"
+
+
+def test_a_non_finite_objective_never_reaches_the_optimiser(tmp_path, monkeypatch):
+    """The guard: NaN at iteration 2 ends the run loudly, with the best design kept."""
+    from shapegrowth.problem import ReducedFunctional
+
+    real = ReducedFunctional.evaluate
+    calls = {"n": 0}
+
+    def poisoned(self, m, gradient=True):
+        ev = real(self, m, gradient)
+        calls["n"] += 1
+        if calls["n"] == 3:
+            ev.value.total = float("nan")
+        return ev
+
+    monkeypatch.setattr(ReducedFunctional, "evaluate", poisoned)
+    code = run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=6")
+    s = read_json(tmp_path / "summary.json")
+    assert code == 1
+    assert s["status"].startswith("failed: non-finite objective at iteration 2")
+    assert s["iterations"] == 2 and np.isfinite(s["objective_final"])

@@ -1,0 +1,102 @@
+"""Pictures of bodies with matplotlib: the deformed boundary surface (3D) or the deformed
+mesh (2D), coloured by a field, and eigenvector glyphs.  For notebooks and figures of
+small meshes: everything is gathered on every rank, and rank 0 draws.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+import dolfinx.fem
+import dolfinx.mesh
+
+from . import compat
+
+
+@dataclass
+class Surface:
+    """Triangles of the boundary (3D) or of the cells (2D) with their vertex positions."""
+
+    reference: np.ndarray  # (n, 3) vertex positions X
+    deformed: np.ndarray  # (n, 3) Phi(X) = X + u(X)
+    triangles: np.ndarray  # (m, 3) indices into the positions
+    values: np.ndarray | None  # (n,) a field at the vertices, or None
+
+
+def surface(u: dolfinx.fem.Function, field: dolfinx.fem.Function | None = None) -> Surface:
+    """The body's boundary triangles (its cells in 2D), deformed by the displacement ``u``
+    and coloured by the scalar ``field`` (both evaluated at the vertices)."""
+    mesh = u.function_space.mesh
+    comm, tdim = mesh.comm, mesh.topology.dim
+    if tdim == 3:
+        mesh.topology.create_connectivity(tdim - 1, tdim)
+        entities = dolfinx.mesh.exterior_facet_indices(mesh.topology)
+        dim = tdim - 1
+    else:
+        entities = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
+        dim = tdim
+    nodes = compat.entities_to_geometry(mesh, dim, entities)
+    nodes = nodes[:, :3]  # the corners (straight-sided geometry)
+    x = mesh.geometry.x
+    pieces = comm.allgather((x[np.unique(nodes)], nodes, np.unique(nodes)))
+    points, triangles, offset = [], [], 0
+    for coords, tri, used in pieces:
+        local = np.searchsorted(used, tri)
+        points.append(coords)
+        triangles.append(local + offset)
+        offset += len(coords)
+    X = np.concatenate(points)
+    tri = np.concatenate(triangles).astype(int)
+    disp = compat.evaluate_at_points(u, X)
+    disp = np.nan_to_num(disp)
+    shift = np.zeros_like(X)
+    shift[:, :disp.shape[1]] = disp
+    values = None if field is None else compat.evaluate_at_points(field, X)[:, 0]
+    return Surface(X, X + shift, tri, values)
+
+
+def draw(ax, surf: Surface, deformed: bool = True, cmap: str = "viridis",
+         alpha: float = 1.0, edgecolor: str | None = None, clim=None,
+         plane: tuple[int, int] = (0, 1)):
+    """Draw on a matplotlib axis: 3D axes show the surface, 2D axes its projection on the
+    coordinate ``plane`` ((0, 2): a side view X1-X3); returns the mappable."""
+    P = surf.deformed if deformed else surf.reference
+    if getattr(ax, "name", "") == "3d":
+        from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+        faces = P[surf.triangles]
+        poly = Poly3DCollection(faces, alpha=alpha, linewidths=0.2,
+                                edgecolor=edgecolor or (0, 0, 0, 0.15))
+        if surf.values is not None:
+            poly.set_array(surf.values[surf.triangles].mean(axis=1))
+            poly.set_cmap(cmap)
+            if clim is not None:
+                poly.set_clim(*clim)
+        else:
+            poly.set_facecolor((0.55, 0.7, 0.9, alpha))
+        ax.add_collection3d(poly)
+        _equal_3d(ax, P)
+        return poly
+    import matplotlib.tri as mtri
+
+    triang = mtri.Triangulation(P[:, plane[0]], P[:, plane[1]], surf.triangles)
+    if surf.values is not None:
+        artist = ax.tripcolor(triang, surf.values, shading="gouraud", cmap=cmap)
+        if clim is not None:
+            artist.set_clim(*clim)
+    else:
+        artist = None
+    ax.triplot(triang, color=edgecolor or "0.3", lw=0.3)
+    ax.set_aspect("equal")
+    return artist
+
+
+def _equal_3d(ax, P: np.ndarray) -> None:
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    centre, half = (lo + hi) / 2, (hi - lo).max() / 2 * 1.05
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_zlim(centre[2] - half, centre[2] + half)
+    ax.set_box_aspect((1, 1, 1))
