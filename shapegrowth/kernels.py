@@ -262,7 +262,10 @@ def _column(qx, qy, qz, radius, ix, iy, origin, cell, shape, start):
 # Each pair gives (exp(-alpha (g(r) - base)), g'(r) / r) with g(r) = r (exp) or
 # log(1 + r) (rational); exponents are clamped at 100.  r = 0 only where
 # dx = dy = dz = 0, so 1 / max(r, tiny) multiplies zeros there.  The loops run over
-# slices: with bounds loaded from the grid's offsets LLVM did not vectorise them.
+# slices: with bounds loaded from the grid's offsets LLVM did not vectorise them.  The
+# four pair loops below are spelled out one by one on purpose: each must be a single flat
+# loop with its own fastmath flags for LLVM to vectorise it (a shared helper with a
+# branch or a callback inside the loop kept it scalar).
 
 @numba.njit(cache=True, fastmath=_VECTOR)
 def _span_exp(qx, qy, qz, base, alpha, xs, ys, zs, w):
