@@ -41,6 +41,10 @@ from .state import StateProblem
 log = logging.getLogger(__name__)
 
 
+class AdjointSolveError(RuntimeError):
+    """The adjoint's linear solver did not converge (an optimisation ends on it, reported)."""
+
+
 class AdjointProblem:
     prefix = "adjoint_"
     refine_rtol = 1e-12  # residual, relative to b
@@ -95,7 +99,9 @@ class AdjointProblem:
         self.ksp.setOperators(self.A)
         self.ksp.solve(self.rhs, self.p.vector)
         if self.ksp.getConvergedReason() < 0:
-            raise RuntimeError(f"adjoint solve failed (KSP reason {self.ksp.getConvergedReason()})")
+            raise AdjointSolveError(f"adjoint solve failed (KSP reason "
+                                    f"{self.ksp.getConvergedReason()}); a direct solver "
+                                    "(solver.linear: mumps) does not fail this way")
         self.p.x.scatter_forward()
         return self.ksp.getIterationNumber()
 

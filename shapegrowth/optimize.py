@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
+from .adjoint import AdjointSolveError
 from .problem import ReducedFunctional, StateSolveError
 
 log = logging.getLogger(__name__)
@@ -187,6 +188,9 @@ class Optimizer:
                 f, g, record = self._evaluate(k, x)
         except StateSolveError as err:
             self.failure = f"state solve failed at iteration {k}: {err}"
+            raise nlopt.ForcedStop(self.failure) from None
+        except AdjointSolveError as err:
+            self.failure = f"at iteration {k}: {err}"
             raise nlopt.ForcedStop(self.failure) from None
         if not (np.isfinite(f) and np.isfinite(g).all()):
             # never hand NaN or inf to NLopt: it would wander off with them silently

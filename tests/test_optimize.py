@@ -189,3 +189,25 @@ def test_a_non_finite_objective_never_reaches_the_optimiser(tmp_path, monkeypatc
     assert code == 1
     assert s["status"].startswith("failed: non-finite objective at iteration 2")
     assert s["iterations"] == 2 and np.isfinite(s["objective_final"])
+
+
+def test_a_failed_adjoint_solve_ends_the_run_reported(tmp_path, monkeypatch):
+    """An iterative adjoint solver that breaks down (seen with GAMG on a thin beam) ends the
+    run with its reason and the best design, not with a traceback."""
+    from shapegrowth.adjoint import AdjointProblem, AdjointSolveError
+
+    real = AdjointProblem.solve
+    calls = {"n": 0}
+
+    def breaks_down(self, dJdu):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise AdjointSolveError("adjoint solve failed (KSP reason -5)")
+        return real(self, dJdu)
+
+    monkeypatch.setattr(AdjointProblem, "solve", breaks_down)
+    code = run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=6")
+    s = read_json(tmp_path / "summary.json")
+    assert code == 1
+    assert s["status"] == "failed: at iteration 1: adjoint solve failed (KSP reason -5)"
+    assert s["iterations"] == 1 and (tmp_path / "fields.xdmf").is_file()
