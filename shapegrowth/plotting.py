@@ -100,3 +100,37 @@ def _equal_3d(ax, P: np.ndarray) -> None:
     ax.set_ylim(centre[1] - half, centre[1] + half)
     ax.set_zlim(centre[2] - half, centre[2] + half)
     ax.set_box_aspect((1, 1, 1))
+
+
+def write_shape_png(path, u: dolfinx.fem.Function, field: dolfinx.fem.Function,
+                    target_points: np.ndarray, label: str) -> None:
+    """The deformed body coloured by ``field`` with the target's sample points as dots, seen
+    along the axis in which the body is thinnest (a side view of a beam, the plane of a 2D
+    body).  Collective; rank 0 writes."""
+    comm = u.function_space.mesh.comm
+    surf = surface(u, field)
+    target = np.concatenate(comm.allgather(np.asarray(target_points)))
+    if comm.rank != 0:
+        return
+    from matplotlib.figure import Figure
+
+    target3 = np.zeros((len(target), 3))
+    target3[:, :target.shape[1]] = target
+    extent = np.ptp(np.vstack([surf.deformed, target3]), axis=0)
+    plane = tuple(sorted(np.argsort(extent)[-2:])) if u.function_space.mesh.geometry.dim == 3 \
+        else (0, 1)
+    span = extent[list(plane)]
+    fig = Figure(figsize=(7.0, max(2.4, min(6.0, 7.0 * span[1] / max(span[0], 1e-12)))),
+                 dpi=120)
+    ax = fig.subplots()
+    artist = draw(ax, surf, plane=plane, edgecolor="0.85")
+    every = max(1, len(target3) // 4000)
+    ax.plot(target3[::every, plane[0]], target3[::every, plane[1]], ".", ms=1.2, color="k",
+            alpha=0.35, label="target")
+    if artist is not None:
+        fig.colorbar(artist, ax=ax, label=label)
+    ax.set_xlabel(f"$x_{plane[0] + 1}$")
+    ax.set_ylabel(f"$x_{plane[1] + 1}$")
+    ax.legend(loc="best", fontsize=7, markerscale=6)
+    fig.tight_layout()
+    fig.savefig(path)

@@ -1,8 +1,9 @@
 """``shapegrowth run``: build the model, optimise, and write every output.
 
-Outputs in the run folder: summary.json, history.csv, history.png, fields.xdmf
-(+ .h5: displacement, Phi, the filtered growth fields lambda_hat_i/theta_hat_i,
-the eigenvectors v_i, residual_strain) and checkpoint.h5.
+Outputs in the run folder: summary.json, history.csv, history.png, shape.png (the
+deformed body coloured by lambda_hat_1, the target as dots), fields.xdmf (+ .h5:
+displacement, Phi, the filtered growth fields lambda_hat_i/theta_hat_i, the
+eigenvectors v_i, residual_strain) and checkpoint.h5.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any
 
 from . import compat, io
 from .forward import ForwardModel, base_summary
+from .plotting import write_shape_png
 from .optimize import Optimizer
 from .problem import ReducedFunctional, StateSolveError
 from .state import SolveReport
@@ -48,6 +50,8 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         phi = io.deformation_field(model.state.u)
         io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
                         extra=[phi, model.residual_strain_field()])
+        write_shape_png(out / "shape.png", model.state.u, model.state.applied.eigenvalues[0],
+                        rf.objective.target.points, "lambda_hat_1")
     report = final.report if final else SolveReport(converged=False, reason="no state")
     summary = base_summary(cfg, model, report, status, timer)
     first = history[0] if history else None
@@ -73,7 +77,8 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
              "(%.3g %% of the target size)", status, len(history),
              summary["rho_H_initial"] or float("nan"), summary["rho_H_final"] or float("nan"),
              exact, 100 * rel)
-    log.info("results in %s: summary.json, history.csv, history.png, fields.xdmf", out)
+    log.info("results in %s: summary.json, history.csv, history.png, shape.png, fields.xdmf",
+             out)
     log.info("view: paraview %s, Filters > Warp By Vector (displacement), colour by lambda_hat_1",
              out / "fields.xdmf")
     return RunResult(summary, 0 if not status.startswith("failed") else 1, model)

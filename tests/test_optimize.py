@@ -124,6 +124,14 @@ def test_run_fields_hold_phi_and_the_filtered_growth(tmp_path):
         names = set(h5["Function"])
     assert {"Phi", "displacement", "lambda_hat_1", "lambda_hat_2", "lambda_hat_3",
             "v_1", "v_2", "v_3"} <= names
+    assert (tmp_path / "shape.png").stat().st_size > 10000  # the deformed body and target
+
+
+@pytest.mark.mpi
+def test_a_2d_run_draws_its_plane_on_two_ranks(shared_tmp):
+    assert run_cli("run", CONFIGS / "tiny" / "square_disk.yaml", "--out", shared_tmp, "-q",
+                   "--set", "optimizer.max_iterations=2") == 0
+    assert (shared_tmp / "shape.png").stat().st_size > 10000
 
 
 def test_resume_without_checkpoint_is_bad_input(tmp_path, capsys):
