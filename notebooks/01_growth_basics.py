@@ -54,6 +54,20 @@ def solved(config: Path, *overrides: str) -> ForwardModel:
     return model
 
 
+def show(surf, title: str, elev: float, azim: float, label: str | None = None) -> None:
+    """The deformed surface in 3D (on rank 0), coloured by its field when it has one."""
+    if not rank0:
+        return
+    fig = plt.figure(figsize=(6, 4))
+    ax = fig.add_subplot(projection="3d")
+    poly = draw(ax, surf)
+    if label:
+        fig.colorbar(poly, ax=ax, shrink=0.6, label=label)
+    ax.view_init(elev=elev, azim=azim)
+    ax.set_title(title)
+    plt.show()
+
+
 # %% [markdown]
 # ## Bend
 # With $\lambda_1 = (1 + \kappa X_3)^2$ along the beam axis the fibres at height $X_3$ are
@@ -68,15 +82,8 @@ if rank0:
     print("tip at", np.round(tip, 4), "(closed form: 0, 0, -0.6366)")
 
 # %%
-bend = surface(beam.state.u, beam.growth.eigenvalues[0])
-if rank0:
-    fig = plt.figure(figsize=(6, 4))
-    ax = fig.add_subplot(projection="3d")
-    poly = draw(ax, bend)
-    fig.colorbar(poly, ax=ax, shrink=0.6, label=r"$\hat\lambda_1$")
-    ax.view_init(elev=5, azim=-90)
-    ax.set_title("bend: top fibres grow more")
-    plt.show()
+show(surface(beam.state.u, beam.growth.eigenvalues[0]), "bend: top fibres grow more",
+     elev=5, azim=-90, label=r"$\hat\lambda_1$")
 
 # %% [markdown]
 # ## Twist
@@ -92,14 +99,8 @@ strip = solved(CONFIGS / "tiny" / "beam_bend.yaml",
                # pi -/+ pi/4: the same lines as -/+45 degrees
                "growth.angles.initial=[0, 0, 'pi + pi/2*x3/thickness']",
                "geometry.width=0.3", "mesh.layers=2")
-twist = surface(strip.state.u)
-if rank0:
-    fig = plt.figure(figsize=(6, 4))
-    ax = fig.add_subplot(projection="3d")
-    draw(ax, twist)
-    ax.view_init(elev=20, azim=-60)
-    ax.set_title("twist: the growth direction turns through the thickness")
-    plt.show()
+show(surface(strip.state.u), "twist: the growth direction turns through the thickness",
+     elev=20, azim=-60)
 
 # %% [markdown]
 # ## Cup
@@ -114,12 +115,7 @@ disk = solved(CONFIGS / "disk_cone.yaml",
               "mesh.size=0.2", "mesh.layers=1",
               "growth.eigenvalues.initial=['(1 + x3)**2', '(1 + x3)**2', 1.0]")
 cup = surface(disk.state.u)
+show(cup, "cup: the upper face grows more in every direction", elev=15, azim=-60)
 if rank0:
-    fig = plt.figure(figsize=(6, 4))
-    ax = fig.add_subplot(projection="3d")
-    draw(ax, cup)
-    ax.view_init(elev=15, azim=-60)
-    ax.set_title("cup: the upper face grows more in every direction")
-    plt.show()
     z = cup.deformed[:, 2]
     print(f"rim lifted by {z.max() - z.min():.3f} (disk radius 1)")
