@@ -24,6 +24,8 @@ disk() {
 
 beam mesh_size --sweep mesh.size=0.2,0.1,0.07,0.05
 beam mesh_size_fine_reference --sweep mesh.size=0.07,0.05 --reference mesh.size=0.035
+beam filter_fine --set mesh.size=0.05 --sweep growth.filter_length=0.03,0.05 \
+  --reference mesh.size=0.035
 beam layers --sweep mesh.layers=1,2,3
 beam degree --sweep model.degree=1,2
 beam quadrature --sweep model.quadrature_degree=2,3,4,6
