@@ -14,7 +14,7 @@ export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 export OMPI_MCA_rmaps_base_oversubscribe := 1
 MPIRUN := mpirun -n $(NP)
 
-.PHONY: setup run bend test test-serial test-mpi notebooks bench reference-docs clean help
+.PHONY: setup run bend test test-serial test-mpi notebooks bench reproduce reference-docs clean help
 
 help:
 	@echo "make run    - the default scene end to end (installs what is missing)"
@@ -22,6 +22,7 @@ help:
 	@echo "make test   - the test suite, serial and under mpirun -n $(NP), and the notebooks"
 	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
 	@echo "make bench  - the performance benchmark (results/bench/bench.json, minutes)"
+	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (hours)"
 	@echo "make setup  - Debian packages and .venv only"
 
 setup: $(STAMP)
@@ -66,6 +67,11 @@ notebooks: setup
 
 bench: setup
 	$(BIN)/shapegrowth bench
+
+# The paper's scenes under mpirun -n $(NP), resumable, then docs/RESULTS.md from the runs
+# (hours on 2 cores; an interrupted reproduction continues where it stopped).
+reproduce: setup
+	$(BIN)/python scripts/reproduce.py --ranks $(NP)
 
 # docs/CONFIG.md from the schema (a test checks that it is current)
 reference-docs: setup

@@ -219,3 +219,23 @@ def test_a_failed_adjoint_solve_ends_the_run_reported(tmp_path, monkeypatch):
     assert code == 1
     assert s["status"] == "failed: at iteration 1: adjoint solve failed (KSP reason -5)"
     assert s["iterations"] == 1 and (tmp_path / "fields.xdmf").is_file()
+
+
+def test_reproduce_writes_results_from_the_run_folders(tmp_path):
+    """scripts/reproduce.py: the two square runs, the table with the fixed/free ratio, the
+    figures; a second call reads the finished runs back instead of running them."""
+    import sys
+
+    cmd = [sys.executable, str(ROOT / "scripts" / "reproduce.py"), "--ranks", "1",
+           "--only", "square_circle_fixed,square_circle_free", "--out", str(tmp_path / "runs"),
+           "--results", str(tmp_path / "RESULTS.md"), "--set", "optimizer.max_iterations=2",
+           "--set", "mesh.size=1.0"]
+    first = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    assert first.returncode == 0, first.stderr
+    text = (tmp_path / "RESULTS.md").read_text()
+    assert "| 6 | square_circle_free | " in text and "not run" in text  # the others
+    assert "rho_H(square_circle_fixed) / rho_H(square_circle_free) = **" in text
+    assert (tmp_path / "img" / "results" / "square_circle_free_shape.png").is_file()
+    again = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    assert again.returncode == 0 and "reproduce: square" not in again.stdout
+    assert (tmp_path / "RESULTS.md").read_text() == text
