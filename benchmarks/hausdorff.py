@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from shapegrowth import kernels
+from shapegrowth import cellgrid, kernels
 from shapegrowth.hausdorff import PointCloud, SmoothHausdorff
 
 RNG = np.random.default_rng(2)
@@ -38,8 +38,8 @@ def timed(fn, repeat: int = 2) -> float:
 
 def throughput(n: int = 20000) -> None:
     a, b = beam(n), beam(n, wave=0.15)
-    grid = kernels.SourceGrid.build(a.points, a.weights, None)
-    q = kernels._as3(b.points)
+    grid = cellgrid.SourceGrid.build(a.points, a.weights, None)
+    q = cellgrid.as3(b.points)
     gmin = np.zeros(n)
     radius = np.full(n, np.inf)
     args = (q, grid.xyz, grid.weights, grid.origin, grid.cell, grid.shape, grid.start, gmin,

@@ -28,7 +28,7 @@ import numpy as np
 from mpi4py import MPI
 from scipy.spatial import cKDTree
 
-from . import kernels
+from . import cellgrid, kernels
 
 
 def _kdtree_workers() -> int:
@@ -54,7 +54,7 @@ class PointCloud:
             pts = comm.allgather(np.ascontiguousarray(self.points, dtype=np.float64))
             wts = comm.allgather(np.ascontiguousarray(self.weights, dtype=np.float64))
             offset = sum(len(p) for p in pts[:comm.rank])
-            self._gathered = (comm.py2f(), kernels._as3(np.concatenate(pts)),
+            self._gathered = (comm.py2f(), cellgrid.as3(np.concatenate(pts)),
                               np.concatenate(wts), offset)
             self._tree = None
         return self._gathered[1:]
@@ -87,7 +87,7 @@ class _Direction:
     V: np.ndarray
     gmin: np.ndarray
     radius: np.ndarray
-    grid: kernels.SourceGrid
+    grid: cellgrid.SourceGrid
     q_total: float  # total weight of the queries (all ranks)
     farthest: float  # largest nearest-source distance of a query (all ranks)
 
@@ -132,11 +132,11 @@ class SmoothHausdorff:
             return e - 1.0, e
         return s, np.ones_like(s)
 
-    def _grid(self, sources, weights, radius) -> kernels.SourceGrid:
+    def _grid(self, sources, weights, radius) -> cellgrid.SourceGrid:
         use = self.truncate
-        cell = kernels.auto_cell(sources, radius) if use is None else (
+        cell = cellgrid.auto_cell(sources, radius) if use is None else (
             float(np.median(radius)) if use else None)
-        return kernels.SourceGrid.build(sources, weights, cell)
+        return cellgrid.SourceGrid.build(sources, weights, cell)
 
     def _mean_distance(self, queries, q_weights, sources, s_weights, comm,
                        query_gradient: bool = True) -> "_Direction":
@@ -145,13 +145,13 @@ class SmoothHausdorff:
 
         The grid is sized from a sample of nearest distances; the exact nearest distances
         (the shift g_min, and the exact Hausdorff distance for free) come from the grid."""
-        estimate = self._cutoff_radius(self._g(kernels.sample_nearest(queries, sources)))
+        estimate = self._cutoff_radius(self._g(cellgrid.sample_nearest(queries, sources)))
         grid = self._grid(sources, s_weights, estimate)
         order = grid.locality_order(queries)
         ordered = np.ascontiguousarray(queries[order])
         nearest = np.empty(len(queries))
-        nearest[order] = kernels.nearest_distance(ordered, grid.xyz, grid.origin, grid.cell,
-                                                  grid.shape, grid.start)
+        nearest[order] = cellgrid.nearest_distance(ordered, grid.xyz, grid.origin, grid.cell,
+                                                   grid.shape, grid.start)
         gmin = self._g(nearest)
         radius = self._cutoff_radius(gmin)
         Z, V = np.empty(len(queries)), np.empty((len(queries), 3))
@@ -169,8 +169,8 @@ class SmoothHausdorff:
 
     def soft_distance(self, points: np.ndarray, cloud: PointCloud) -> np.ndarray:
         """The soft distance d_cloud(x) of (2.9) for each of ``points`` (serial)."""
-        queries = kernels._as3(np.atleast_2d(points))
-        sources = kernels._as3(cloud.points)
+        queries = cellgrid.as3(np.atleast_2d(points))
+        sources = cellgrid.as3(cloud.points)
         weights = np.asarray(cloud.weights, dtype=float)
         return self._mean_distance(queries, np.ones(len(queries)), sources, weights,
                                    MPI.COMM_SELF).d
@@ -180,8 +180,8 @@ class SmoothHausdorff:
         alpha, beta, gamma = self.alpha, self.beta, self.gamma
         b_all, wb_all, b_off = body.gathered(comm)
         t_all, wt_all, _ = target.gathered(comm)
-        b_own, wb_own = kernels._as3(body.points), np.asarray(body.weights, dtype=float)
-        t_own, wt_own = kernels._as3(target.points), np.asarray(target.weights, dtype=float)
+        b_own, wb_own = cellgrid.as3(body.points), np.asarray(body.weights, dtype=float)
+        t_own, wt_own = cellgrid.as3(target.points), np.asarray(target.weights, dtype=float)
 
         # target -> body: the target points do not move, only the sources' gradient is needed
         d1 = self._mean_distance(t_own, wt_own, b_all, wb_all, comm, query_gradient=False)
@@ -233,8 +233,8 @@ class SmoothHausdorff:
 def exact_hausdorff(a: PointCloud, b: PointCloud, comm: MPI.Comm = MPI.COMM_SELF) -> float:
     """Symmetric Hausdorff distance between two point sets (KD-tree)."""
     a_tree, b_tree = a.tree(comm), b.tree(comm)
-    d_ab = b_tree.query(kernels._as3(a.points), k=1, workers=_kdtree_workers())[0]
-    d_ba = a_tree.query(kernels._as3(b.points), k=1, workers=_kdtree_workers())[0]
+    d_ab = b_tree.query(cellgrid.as3(a.points), k=1, workers=_kdtree_workers())[0]
+    d_ba = a_tree.query(cellgrid.as3(b.points), k=1, workers=_kdtree_workers())[0]
     local = max(d_ab.max(initial=0.0), d_ba.max(initial=0.0))
     return comm.allreduce(float(local), MPI.MAX)
 

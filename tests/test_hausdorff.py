@@ -67,13 +67,13 @@ def test_vectorised_exp_matches_libm():
 def test_grid_nearest_distances_are_the_kd_tree_ones(cell):
     from scipy.spatial import cKDTree
 
-    from shapegrowth import kernels
+    from shapegrowth import cellgrid
 
     sources = RNG.random((5000, 3)) * [1.0, 0.3, 0.05]
     queries = RNG.random((3000, 3)) * [1.6, 0.8, 0.6] - [0.3, 0.2, 0.3]
-    grid = kernels.SourceGrid.build(sources, np.ones(len(sources)), cell)
-    near = kernels.nearest_distance(queries, grid.xyz, grid.origin, grid.cell, grid.shape,
-                                    grid.start)
+    grid = cellgrid.SourceGrid.build(sources, np.ones(len(sources)), cell)
+    near = cellgrid.nearest_distance(queries, grid.xyz, grid.origin, grid.cell, grid.shape,
+                                     grid.start)
     assert np.allclose(near, cKDTree(sources).query(queries)[0], rtol=1e-15, atol=0)  # 1 ulp
 
 
