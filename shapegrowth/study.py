@@ -21,7 +21,6 @@ from __future__ import annotations
 import itertools
 import logging
 import math
-import resource
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,6 +35,7 @@ from .config import Config, ConfigError, load
 from .forward import ForwardModel
 from .objective import Objective
 from .runner import run_optimization
+from .timing import peak_memory_mb, reset_peak_memory
 from .transfer import interpolate_between_meshes
 
 log = logging.getLogger(__name__)
@@ -88,34 +88,6 @@ def reference_overrides(sweeps: list[Sweep], extra: list[str]) -> list[str]:
     return out + list(extra)
 
 
-class PeakMemory:
-    """Peak resident memory of this process during a block (MB, summed over ranks): the
-    kernel's high-water mark is reset first where Linux allows it."""
-
-    def __init__(self, comm: MPI.Comm):
-        self.comm = comm
-
-    def __enter__(self) -> "PeakMemory":
-        try:
-            Path("/proc/self/clear_refs").write_text("5")
-        except OSError:
-            pass  # then the mark is the process's peak so far
-        return self
-
-    def __exit__(self, *exc) -> None:
-        return None
-
-    def read(self) -> float:
-        kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-        try:
-            for line in Path("/proc/self/status").read_text().splitlines():
-                if line.startswith("VmHWM:"):
-                    kb = int(line.split()[1])
-        except OSError:
-            pass
-        return self.comm.allreduce(kb, MPI.SUM) / 1024.0
-
-
 def evaluate_on_reference(model: ForwardModel, reference: Config) -> dict[str, Any]:
     """The exact Hausdorff distance of ``model``'s applied growth, solved on ``reference``."""
     ref = ForwardModel.build(reference, model.comm)
@@ -151,9 +123,9 @@ def run_study(config: Path, overrides: list[str], sweeps: list[Sweep], out: Path
         cfg = load(config, overrides + sets)
         resume = (folder / "checkpoint.h5").exists()
         tic = time.perf_counter()
-        with PeakMemory(comm) as memory:
-            result = run_optimization(cfg, folder, resume=resume)
-            peak = memory.read()
+        reset_peak_memory()
+        result = run_optimization(cfg, folder, resume=resume)
+        peak = peak_memory_mb(comm)
         wall = time.perf_counter() - tic
         reference = load(config, overrides + sets + ref_sets)
         judged = evaluate_on_reference(result.model, reference)

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import resource
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
+
+from mpi4py import MPI
 
 CATEGORIES = ("forward", "adjoint", "hausdorff", "filter", "optimizer", "io")
 
@@ -36,3 +40,24 @@ class Timer:
 
     def split(self) -> dict[str, float]:
         return {k: round(v, 4) for k, v in self.totals.items()}
+
+
+def reset_peak_memory() -> None:
+    """Restart this process's resident-memory high-water mark where Linux allows it (else
+    the peak is that of the process so far)."""
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+    except OSError:
+        pass
+
+
+def peak_memory_mb(comm: MPI.Comm) -> float:
+    """Peak resident memory since the last reset (or process start), summed over ranks."""
+    kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                kb = int(line.split()[1])
+    except OSError:
+        pass
+    return comm.allreduce(kb, MPI.SUM) / 1024.0
