@@ -40,7 +40,8 @@ def surface(u: dolfinx.fem.Function, field: dolfinx.fem.Function | None = None) 
     nodes = compat.entities_to_geometry(mesh, dim, entities)
     nodes = nodes[:, :3]  # the corners (straight-sided geometry)
     x = mesh.geometry.x
-    pieces = comm.allgather((x[np.unique(nodes)], nodes, np.unique(nodes)))
+    used = np.unique(nodes)
+    pieces = comm.allgather((x[used], nodes, used))
     points, triangles, offset = [], [], 0
     for coords, tri, used in pieces:
         local = np.searchsorted(used, tri)

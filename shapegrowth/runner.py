@@ -55,7 +55,8 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     report = final.report if final else SolveReport(converged=False, reason="no state")
     summary = base_summary(cfg, model, report, status, timer)
     first = history[0] if history else None
-    exact = rf.objective.exact_hausdorff()
+    # with rho_H at the best design; without a state there, from the clouds as they are
+    exact = final.value.hausdorff if final else rf.objective.exact_hausdorff()
     summary.update({
         "iterations": len(history),
         "objective_initial": first.objective if first else None,
