@@ -38,6 +38,13 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
         errors.append(f"boundary.clamp: '{bc}' is not a boundary of a {kind} "
                       f"(allowed: {', '.join(allowed)})")
 
+    if cfg.mesh.clamp_size is not None:
+        if kind != "box" or bc != "x1_min":
+            errors.append("mesh.clamp_size: only a box clamped at x1_min is graded towards its "
+                          "clamp; remove the key")
+        elif cfg.mesh.clamp_size >= cfg.mesh.size:
+            errors.append("mesh.clamp_size: must be smaller than mesh.size (or left out)")
+
     loads = cfg.loads
     body_force = loads.body_force if loads.body_force is not None else (0.0,) * dim
     if len(body_force) != dim:

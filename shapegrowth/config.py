@@ -67,6 +67,14 @@ class GeometryConfig:
 class MeshConfig:
     size: float = option("target element size", gt=0)
     layers: int = option("elements through the wall or thickness (layered bodies)", 2, ge=1)
+    clamp_size: float | None = option(
+        "box clamped at x1_min: element size at the clamp, growing to `size` away from it "
+        "(resolves the sharp bend a clamped end needs); default: uniform `size`", None, gt=0)
+    grading: float = option("growth of the element size per unit distance from the clamp "
+                            "(with clamp_size)", 0.5, gt=0)
+    refine: int = option("uniform refinements of the built mesh (each cell split in 4 in 2D, "
+                         "8 in 3D; nested, so fields of the coarse mesh carry over exactly)",
+                         0, ge=0, le=3)
     cache_dir: str = option("folder of the mesh cache", "meshes")
 
 

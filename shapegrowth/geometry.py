@@ -63,6 +63,10 @@ def _params(cfg: Config) -> dict[str, float | int | str]:
         params[name] = getattr(geo, name)
     if geo.kind in LAYERED:
         params["layers"] = cfg.mesh.layers
+    if cfg.mesh.refine:
+        params["refine"] = cfg.mesh.refine
+    if cfg.mesh.clamp_size is not None:
+        params["clamp_size"], params["grading"] = cfg.mesh.clamp_size, cfg.mesh.grading
     return params
 
 
@@ -139,6 +143,8 @@ def _build(cfg: Config, path: Path) -> None:
         builders[geo.kind](gmsh, cfg, h)
         _physical_groups(gmsh, cfg)
         gmsh.model.mesh.generate(cfg.model.dim)
+        for _ in range(cfg.mesh.refine):
+            gmsh.model.mesh.refine()
         gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
         gmsh.write(str(path))
     finally:
@@ -156,6 +162,26 @@ def _box(gmsh, cfg: Config, h: float) -> None:
     occ.extrude([(2, rect)], 0, 0, g.thickness, numElements=[cfg.mesh.layers])
     occ.synchronize()
     gmsh.model.mesh.setSize(gmsh.model.getEntities(0), h)
+    if cfg.mesh.clamp_size is not None:
+        _graded_towards_x1_min(gmsh, rect, cfg.mesh.clamp_size, h, cfg.mesh.grading)
+
+
+def _graded_towards_x1_min(gmsh, surface: int, h_min: float, h: float, rate: float) -> None:
+    """Element size h_min on the edge X1 = 0 of the extruded ``surface``, growing by
+    ``rate`` per unit distance up to h (the extrusion carries the graded triangles
+    through the thickness)."""
+    edges = [tag for dim, tag in gmsh.model.getBoundary([(2, surface)], oriented=False)
+             if abs(gmsh.model.occ.getCenterOfMass(dim, tag)[0]) < 1e-12]
+    field = gmsh.model.mesh.field
+    distance = field.add("Distance")
+    field.setNumbers(distance, "CurvesList", edges)
+    field.setNumber(distance, "NumPointsPerCurve", 100)
+    ramp = field.add("MathEval")
+    field.setString(ramp, "F", f"min({h}, {h_min} + {rate} * F{distance})")
+    field.setAsBackgroundMesh(ramp)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
 
 
 def _annulus(gmsh, cfg: Config, h: float) -> None:

@@ -12,6 +12,13 @@ finest value (smallest ``mesh.size``, largest ``mesh.layers``, ``model.degree``,
 overrides.  Settings that only steer the optimisation (alpha, the filter, the
 optimiser, the linear solver) do not change the reference.
 
+``--reference mesh.refine=N`` judges each point on its *own* mesh refined N times
+instead (the mesh keys are then not replaced by the sweep's finest): the refined
+mesh is nested in the point's, so the optimal growth carries over exactly and the
+reference error is the discretisation error of the state alone.  On a non-nested
+finer mesh a growth field with a sharp peak is itself changed by interpolation;
+docs/TRADEOFFS.md measures the difference.
+
 Resumable: a point with its ``row.json`` is read, not run again; a point with a
 checkpoint but no row is resumed.  Under mpirun every point runs on all ranks.
 """
@@ -80,8 +87,11 @@ def grid(sweeps: list[Sweep]) -> list[dict[str, str]]:
 
 
 def reference_overrides(sweeps: list[Sweep], extra: list[str]) -> list[str]:
+    nested = any(e.split("=", 1)[0].strip() == "mesh.refine" for e in extra)
     out = []
     for s in sweeps:
+        if nested and s.key.startswith("mesh."):
+            continue  # each point is judged on its own mesh, refined
         if s.key in FINEST:
             numbers = [yaml.safe_load(v) for v in s.values]
             out.append(f"{s.key}={FINEST[s.key](numbers)}")

@@ -54,6 +54,9 @@ def test_minimal_config_gets_documented_defaults(tmp_path):
      "growth.eigenvalues.initial[0]", "may be called"),
     ("boundary: {clamp: inner_rim}", "boundary.clamp", "allowed: x1_min"),
     ("model: {dim: 2}", "model.dim", "rectangle"),
+    ("mesh: {size: 0.05, clamp_size: 0.1}", "mesh.clamp_size", "smaller than mesh.size"),
+    ("boundary: {clamp: rigid}\nmesh: {size: 0.05, clamp_size: 0.01}", "mesh.clamp_size",
+     "only a box clamped at x1_min"),
     ("loads: {traction: {x9_max: [0, 0, 1]}}", "loads.traction.x9_max", "not a boundary"),
 ])
 def test_each_bad_input_names_its_key(tmp_path, extra, key, words):

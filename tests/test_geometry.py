@@ -34,11 +34,11 @@ CASES = {
 }
 
 
-def config(kind, params, size, cache_dir, layers=2):
+def config(kind, params, size, cache_dir, layers=2, clamp="rigid", **mesh):
     dim = 2 if kind == "rectangle" else 3
     return from_dict({"name": kind, "geometry": {"kind": kind, **params},
-                      "mesh": {"size": size, "layers": layers, "cache_dir": str(cache_dir)},
-                      "model": {"dim": dim, "degree": 1}, "boundary": {"clamp": "rigid"}})
+                      "mesh": {"size": size, "layers": layers, "cache_dir": str(cache_dir), **mesh},
+                      "model": {"dim": dim, "degree": 1}, "boundary": {"clamp": clamp}})
 
 
 @pytest.mark.mpi
@@ -110,3 +110,55 @@ def test_a_mesh_with_a_flat_cell_is_refused_with_one_clear_line(squash):
     mesh = dolfinx.mesh.create_mesh(MPI.COMM_WORLD, cells, x, domain)
     with pytest.raises(ConfigError, match=r"mesh.size: 1 of 2 cells are flat or collapsed"):
         check_cells(mesh)
+
+
+def _cell_x1_extent(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """(lowest X1, X1 extent) of every owned cell."""
+    n = mesh.topology.index_map(mesh.topology.dim).size_local
+    x = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, mesh.topology.dim + 1)[:n], 0]
+    return x.min(axis=1), x.max(axis=1) - x.min(axis=1)
+
+
+@pytest.mark.mpi
+def test_box_graded_towards_its_clamp(shared_tmp):
+    """mesh.clamp_size: cells at X1 = 0 of that size, the far end of the uniform size."""
+    params = {"length": 1.0, "width": 0.1, "thickness": 0.02}
+    graded = config("box", params, 0.1, shared_tmp, clamp="x1_min", clamp_size=0.01)
+    mesh = load_domain(graded).mesh
+    lo, extent = _cell_x1_extent(mesh)
+    comm = mesh.comm
+    at_clamp = comm.allreduce(extent[lo < 1e-12].max(initial=0.0), MPI.MAX)
+    far = comm.allreduce(extent[lo > 0.6].max(initial=0.0), MPI.MAX)
+    assert at_clamp < 1.5 * 0.01
+    assert far > 0.5 * 0.1
+    volume = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(
+        dolfinx.fem.Constant(mesh, 1.0) * ufl.dx)), MPI.SUM)
+    assert volume == pytest.approx(1.0 * 0.1 * 0.02, rel=1e-12)
+
+
+@pytest.mark.mpi
+def test_refined_mesh_is_nested_and_carries_p1_fields_exactly(shared_tmp):
+    """mesh.refine: 8x the cells, the coarse vertices kept, a coarse P1 field exact on it."""
+    from shapegrowth.transfer import interpolate_between_meshes
+
+    params = {"length": 1.0, "width": 0.2, "thickness": 0.1}
+    coarse = config("box", params, 0.2, shared_tmp)
+    fine = config("box", params, 0.2, shared_tmp, refine=1)
+    domains = [load_domain(c) for c in (coarse, fine)]
+    meshes = [d.mesh for d in domains]
+    comm = meshes[0].comm
+    cells = [comm.allreduce(m.topology.index_map(3).size_local, MPI.SUM) for m in meshes]
+    assert cells[1] == 8 * cells[0]
+    fields = [dolfinx.fem.Function(dolfinx.fem.FunctionSpace(m, ("CG", 1))) for m in meshes]
+    fields[0].interpolate(lambda p: np.sin(7 * p[0]) * np.cos(5 * p[1]) + 3 * p[2])
+    interpolate_between_meshes(fields[0], fields[1])
+    squares = [comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(f * f * ufl.dx)), MPI.SUM)
+               for f in fields]
+    assert squares[1] == pytest.approx(squares[0], rel=1e-12)  # the same piecewise-linear field
+    assert squares[1] > 1e-3
+    # the refined facets keep their boundary names
+    fine_domain = domains[1]
+    ds = ufl.Measure("ds", domain=meshes[1], subdomain_data=fine_domain.facet_tags)
+    area = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(
+        dolfinx.fem.Constant(meshes[1], 1.0) * ds(fine_domain.boundaries["x1_min"]))), MPI.SUM)
+    assert area == pytest.approx(0.2 * 0.1, rel=1e-12)

@@ -23,6 +23,9 @@ def test_sweeps_parse_into_a_product_grid():
                                               "growth.eigenvalues.initial": "[1.1,1,1]"}
     assert reference_overrides(sweeps + [Sweep.parse("model.degree=1,2")], ["mesh.layers=3"]) \
         == ["mesh.size=0.1", "model.degree=2", "mesh.layers=3"]
+    # a nested reference judges each point on its own mesh: no finest mesh.size
+    assert reference_overrides(sweeps + [Sweep.parse("model.degree=1,2")], ["mesh.refine=1"]) \
+        == ["model.degree=2", "mesh.refine=1"]
     with pytest.raises(ConfigError):
         Sweep.parse("mesh.size")
 
