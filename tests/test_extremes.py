@@ -1,6 +1,7 @@
 """Numerical extremes: eigenvalues at both bounds and with jumps, a beam a tenth as thick as
 the paper's, a growth step too large for Newton, alpha * size = 1e4.  Nothing may crash or
-hand NaN onward; where a closed form exists the numbers must match it."""
+hand NaN onward; where a closed form exists the numbers must match it.  Uniform growth at
+both bounds is a case of test_state's uniform-growth test."""
 
 from __future__ import annotations
 
@@ -17,18 +18,6 @@ from shapegrowth.problem import ReducedFunctional
 CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"
 BEND = CONFIGS / "tiny" / "beam_bend.yaml"
 BEAM = CONFIGS / "tiny" / "beam_wave.yaml"
-
-
-@pytest.mark.mpi
-@pytest.mark.parametrize("lam", [0.01, 12.0])
-def test_uniform_growth_at_the_bounds_is_exact(lam, shared_tmp):
-    """C_g = lam I at the design bounds: volume ratio lam^(3/2), stress-free."""
-    assert run_cli("solve", CUBE, "--out", shared_tmp, "-q",
-                   "--set", f"growth.eigenvalues.initial=[{lam}, {lam}, {lam}]") == 0
-    s = read_json(shared_tmp / "summary.json")
-    assert s["status"] == "converged"
-    assert s["volume_deformed"] / s["volume_reference"] == pytest.approx(lam**1.5, rel=1e-10)
-    assert s["stress_l2"] < 1e-12 * max(lam, 1.0) ** 2
 
 
 def test_growth_jumping_between_the_bounds_converges(tmp_path):
