@@ -13,7 +13,6 @@ which is assembled as an ordinary form from quadrature-element functions.
 
 from __future__ import annotations
 
-import basix
 import numpy as np
 from petsc4py import PETSc
 
@@ -21,9 +20,8 @@ import dolfinx.fem
 import dolfinx.fem.petsc
 import ufl
 
+from . import compat
 from .hausdorff import PointCloud
-
-_BASIX_CELLS = {"tetrahedron": basix.CellType.tetrahedron, "triangle": basix.CellType.triangle}
 
 
 class QuadratureCloud:
@@ -31,8 +29,7 @@ class QuadratureCloud:
 
     def __init__(self, mesh, degree: int):
         self.mesh, self.degree = mesh, degree
-        cell_name = mesh.topology.cell_type.name
-        self.ref_points, ref_weights = basix.make_quadrature(_BASIX_CELLS[cell_name], degree)
+        self.ref_points, ref_weights = compat.reference_quadrature(mesh, degree)
         self.nq = len(ref_weights)
         tdim = mesh.topology.dim
         self.cells = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import basix
 import numpy as np
 from mpi4py import MPI
 
@@ -40,6 +41,14 @@ def read_gmsh(path: Path, comm: MPI.Comm, gdim: int):
     finally:
         if comm.rank == 0:
             gmsh.finalize()
+
+
+def reference_quadrature(mesh, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """Points and weights of basix's default quadrature of ``degree`` on the mesh's
+    reference cell (later dolfinx has ``mesh.basix_cell()``)."""
+    cell = {"tetrahedron": basix.CellType.tetrahedron,
+            "triangle": basix.CellType.triangle}[mesh.topology.cell_type.name]
+    return basix.make_quadrature(cell, degree)
 
 
 def vector_space(mesh, degree: int):

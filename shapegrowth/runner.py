@@ -41,6 +41,8 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     history = optimizer.history
     # leave the state at the best design for the fields and the final numbers
     final = None
+    if status.startswith("failed"):
+        model.state.reset()  # not a warm start from the state that failed
     try:
         final = rf.evaluate(optimizer.vec.local(best), gradient=False)
     except StateSolveError as err:

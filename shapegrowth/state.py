@@ -118,6 +118,8 @@ class StateProblem:
         self._at_rest = True
         self._equilibrium: list[np.ndarray] | None = None  # growth values of the last equilibrium
         self.initial_step_scale = 1.0  # a retry from rest may ask for smaller first steps
+        self._det_F = self._det_F_sampler(max(cfg.quadrature_degree,
+                                              cfg.objective.hausdorff.quadrature_degree))
 
     # ---- the model -------------------------------------------------------------------------
     def deformation_gradient(self) -> ufl.core.expr.Expr:
@@ -150,6 +152,19 @@ class StateProblem:
             dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * ufl.dx(domain=mesh))), MPI.SUM)
         m = self.cfg.material
         return (m.mu1 + m.mu2 + m.lmbda) * volume ** ((self.dim - 1) / self.dim)
+
+    def _det_F_sampler(self, degree: int):
+        """det F at the quadrature points of ``degree`` on the owned cells."""
+        mesh = self.domain.mesh
+        points, _ = compat.reference_quadrature(mesh, degree)
+        expr = dolfinx.fem.Expression(ufl.det(self.deformation_gradient()), points)
+        cells = np.arange(mesh.topology.index_map(mesh.topology.dim).size_local, dtype=np.int32)
+        return lambda: expr.eval(cells)
+
+    def inverted_points(self) -> int:
+        """How many sample points of the current state have det F <= 0 (all ranks)."""
+        local = int(np.count_nonzero(~(self._det_F() > 0.0)))  # NaN counts as inverted
+        return self.domain.mesh.comm.allreduce(local, MPI.SUM)
 
     # ---- PETSc -----------------------------------------------------------------------------
     def _create_snes(self) -> PETSc.SNES:
@@ -200,8 +215,14 @@ class StateProblem:
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
         self.u.x.scatter_forward()
-        ok = reason > 0 and np.isfinite(self.u.x.array).all()
-        return ok, its, _SNES_REASONS.get(reason, str(reason))
+        ok = self.domain.mesh.comm.allreduce(
+            bool(reason > 0 and np.isfinite(self.u.x.array).all()), MPI.LAND)
+        if not ok:
+            return False, its, _SNES_REASONS.get(reason, str(reason))
+        inverted = self.inverted_points()
+        if inverted:
+            return False, its, f"det F <= 0 at {inverted} sample points"
+        return True, its, _SNES_REASONS[reason]
 
     # ---- continuation ----------------------------------------------------------------------
     def adopt_equilibrium(self) -> None:

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from conftest import CONFIGS, read_json, run_cli
+from shapegrowth import compat
 from shapegrowth.config import load
 from shapegrowth.forward import ForwardModel
 from shapegrowth.problem import ReducedFunctional
@@ -63,3 +64,18 @@ def test_sharp_hausdorff_at_alpha_size_1e4_stays_finite(shared_tmp):
     ev = rf.evaluate(rf.current())
     assert math.isfinite(ev.value.total) and np.isfinite(ev.gradient).all()
     assert ev.value.total > 0 and np.abs(ev.gradient).max() > 0
+
+
+@pytest.mark.mpi
+def test_an_inverted_state_is_not_an_equilibrium(shared_tmp):
+    """u = (-2 X1, 0, 0) mirrors the cube (F = diag(-1, 1, 1)): det F < 0 at every sample
+    point, so Newton's answer would be refused; at rest none is inverted.  The points are
+    those of the energy's and the point cloud's quadrature, the finer of the two."""
+    cfg = load(CUBE, [f"mesh.cache_dir={shared_tmp}", "objective.hausdorff.quadrature_degree=3"])
+    state = ForwardModel.build(cfg).state
+    mesh = state.domain.mesh
+    cells = mesh.comm.allreduce(mesh.topology.index_map(3).size_local)
+    points_per_cell = len(compat.reference_quadrature(mesh, 3)[0])  # degree max(2, 3)
+    assert state.inverted_points() == 0
+    state.u.interpolate(lambda x: np.stack([-2.0 * x[0], 0.0 * x[0], 0.0 * x[0]]))
+    assert state.inverted_points() == cells * points_per_cell
