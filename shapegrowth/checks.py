@@ -111,12 +111,30 @@ def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:
         elif i < len(a_init) and isinstance(a_init[i], float) and not a_lo <= a_init[i] <= a_hi:
             errors.append(f"growth.angles.initial[{i}]: {a_init[i]} is outside its bounds "
                           f"[{a_lo}, {a_hi}]")
+    if g.start == "target":
+        _check_target_start(cfg, errors)
     if g.frame != "free" and ang.initial is not None and any(
             not (isinstance(a, float) and a == 0.0) for a in ang.initial):
         errors.append("growth.angles.initial: angles act only with frame: free")
     return dataclasses.replace(
         g, eigenvalues=dataclasses.replace(eig, initial=tuple(initial), design=tuple(design)),
         angles=dataclasses.replace(ang, initial=tuple(a_init), bounds=tuple(a_bounds)))
+
+
+def _check_target_start(cfg: Config, errors: list[str]) -> None:
+    g = cfg.growth
+    if cfg.target is None or cfg.target.map is None:
+        errors.append("growth.start: 'target' needs target.map (a target mesh has no map); "
+                      "use start: given")
+    if g.eigenvalues.incompressible:
+        errors.append("growth.start: 'target' is not defined with eigenvalues.incompressible")
+    if g.frame == "free" and cfg.model.dim == 3:
+        errors.append("growth.start: 'target' with frame: free is implemented in 2D; in 3D "
+                      "give growth.angles.initial and growth.eigenvalues.initial")
+    for key in ("eigenvalues", "angles"):
+        if getattr(g, key).initial is not None:
+            errors.append(f"growth.{key}.initial: start: target sets the initial growth; "
+                          "remove one of the two")
 
 
 def _check_names(cfg: Config, errors: list[str]) -> None:

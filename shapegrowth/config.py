@@ -132,6 +132,10 @@ class GrowthConfig:
     angles: AnglesConfig = option("angle fields theta_i (frame: free)", AnglesConfig())
     filter_length: float = option("Helmholtz filter length l (5.7); 0: no filter", 0.0, ge=0)
     degree: int = option("polynomial degree of the growth fields", 1, choices=(1, 2))
+    start: str = option(
+        "initial growth: 'given' (eigenvalues.initial, angles.initial) or 'target': the target "
+        "map's metric grad Phi_d^T grad Phi_d, projected on the frame (free: its eigenvalues "
+        "and directions, 2D) and clipped to the bounds", "given", choices=("given", "target"))
 
 
 @dataclass(frozen=True)

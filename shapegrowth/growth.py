@@ -17,6 +17,7 @@ det C_g = 1.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 
 import numpy as np
@@ -28,6 +29,9 @@ import ufl
 from . import compat
 from .config import Config, ConfigError
 from .expressions import evaluate
+from .targets import target_metric
+
+log = logging.getLogger(__name__)
 
 
 class Growth:
@@ -104,8 +108,52 @@ class Growth:
             f.x.array[:] = evaluate(value, x, params, axis)
             a_lo, a_hi = g.angles.bounds[i]
             _check_bounds(f, a_lo, a_hi, f"growth.angles.initial[{i}]", problems)
+        if g.start == "target":
+            self._start_from_target(cfg, x, problems)
         if problems:
             raise ConfigError(problems)
+
+    def _start_from_target(self, cfg: Config, x: np.ndarray, problems: list[str]) -> None:
+        """The target map's metric C_d = grad Phi_d^T grad Phi_d at the growth nodes: the
+        growth that would make Phi_d itself stress-free, seen through this frame.  A fixed
+        frame keeps v_i . C_d v_i; the free 2D frame takes C_d's eigenvalues and directions.
+        Values outside the bounds are clipped (where Phi_d is singular, e.g. at corners)."""
+        C = target_metric(cfg, x)
+        if not np.isfinite(C).all():
+            problems.append("growth.start: the target map's gradient is not finite "
+                            "everywhere on the body")
+            return
+        if self.frame == "free":  # 2D (checked)
+            w, vecs = np.linalg.eigh(C)
+            lams = [w[:, 1], w[:, 0]]
+            a_lo, a_hi = cfg.growth.angles.bounds[0]
+            angle = np.arctan2(vecs[:, 1, 1], vecs[:, 0, 1])  # v1 and -v1: the same frame
+            self.angles[0].x.array[:] = np.minimum(a_lo + np.mod(angle - a_lo, np.pi), a_hi)
+        else:
+            vectors = self._frame_values()
+            lams = [np.einsum("nj,njk,nk->n", v, C, v) for v in vectors]
+        lo, hi = cfg.growth.eigenvalues.bounds
+        clipped = 0
+        for f, lam in zip(self.eigenvalues, lams):
+            clipped += int(np.count_nonzero((lam < lo) | (lam > hi)))
+            f.x.array[:] = np.clip(lam, lo, hi)
+        comm = self.mesh.comm
+        clipped, total = comm.allreduce(clipped), comm.allreduce(len(lams[0]) * len(lams))
+        if clipped:
+            log.info("growth.start: target: %d of %d nodal eigenvalues clipped to [%g, %g]",
+                     clipped, total, lo, hi)
+
+    def _frame_values(self) -> list[np.ndarray]:
+        """The frame's v_i at the growth nodes, each (n, dim)."""
+        scratch = dolfinx.fem.Function(self.space)
+        out = []
+        for v in frame_vectors(self.frame, ufl.SpatialCoordinate(self.mesh), self.dim):
+            components = []
+            for k in range(self.dim):
+                compat.interpolate_expression(scratch, v[k])
+                components.append(scratch.x.array.copy())
+            out.append(np.stack(components, axis=1))
+        return out
 
     # ---- UFL -------------------------------------------------------------------------------
     def eigenvalue_exprs(self) -> list[ufl.core.expr.Expr]:

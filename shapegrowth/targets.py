@@ -39,6 +39,24 @@ def target_cloud(cfg: Config, cloud: QuadratureCloud, comm: MPI.Comm) -> PointCl
     return mesh_cloud(Path(target.mesh), cfg.dim, cloud.degree, comm)
 
 
+def target_metric(cfg: Config, X: np.ndarray) -> np.ndarray:
+    """C_d = grad Phi_d^T grad Phi_d of ``target.map`` at the points X (3, n), by central
+    differences: (n, dim, dim).  The step, 1e-5 of each point's distance to the origin (at
+    least 1e-8), depends on the point alone, so every partition gets the same values."""
+    dim = cfg.dim
+    params, axis = cfg.expression_params, cfg.cylinder_axis
+    step = 1e-5 * np.maximum(np.abs(X[:dim]).max(axis=0), 1e-3)
+    grad = np.empty((X.shape[1], dim, dim))
+    for j in range(dim):
+        plus, minus = X.copy(), X.copy()
+        plus[j] += step
+        minus[j] -= step
+        for i, e in enumerate(cfg.target.map[:dim]):
+            grad[:, i, j] = (evaluate(e, plus, params, axis)
+                             - evaluate(e, minus, params, axis)) / (2 * step)
+    return np.einsum("nki,nkj->nij", grad, grad)
+
+
 def mesh_cloud(path: Path, dim: int, degree: int, comm: MPI.Comm) -> PointCloud:
     """Quadrature points and weights of the dim-dimensional simplices of a mesh file."""
     nodes, cells = _read_simplices(path, dim)

@@ -9,10 +9,14 @@ from mpi4py import MPI
 import dolfinx.fem
 import dolfinx.mesh
 import ufl
+from conftest import CONFIGS
 from shapegrowth import closed_forms as cf
+from shapegrowth.config import load
+from shapegrowth.forward import ForwardModel
 from shapegrowth.growth import Growth, frame_vectors, rodrigues
 
 RNG = np.random.default_rng(7)
+SQUARE = CONFIGS / "tiny" / "square_disk.yaml"
 
 
 @pytest.fixture(scope="module")
@@ -109,3 +113,37 @@ def test_blend_is_geometric_in_eigenvalues_and_linear_in_angles(mesh):
     half = growth.blend(start, end, 0.5)
     assert half[0] == pytest.approx([2.0, 2.0])
     assert half[3] == pytest.approx([0.5, 0.5])
+
+
+@pytest.mark.mpi
+def test_start_from_the_target_metric_is_its_projection(shared_tmp):
+    """growth.start: target.  An affine map with grad Phi_d = [[2, 1], [0, 1]] has
+    C_d = [[4, 2], [2, 2]]: eigenvalues 3 +- sqrt(5), v1 at atan2(sqrt(5) - 1, 2); the free
+    frame takes them, and the growth is then compatible: the body takes Phi_d's shape
+    stress-free (residual strain at round-off).  The Cartesian frame keeps the diagonal."""
+    overrides = [f"mesh.cache_dir={shared_tmp}", "growth.start=target",
+                 "growth.eigenvalues.initial=null",
+                 "growth.angles.initial=null", "target.map=['2*x1 + x2', 'x2']"]
+    model = ForwardModel.build(load(SQUARE, overrides))
+    lam1, lam2 = (f.x.array for f in model.growth.eigenvalues)
+    assert np.allclose(lam1, 3 + np.sqrt(5), atol=1e-8)
+    assert np.allclose(lam2, 3 - np.sqrt(5), atol=1e-8)
+    assert np.allclose(model.growth.angles[0].x.array, np.arctan2(np.sqrt(5) - 1, 2), atol=1e-8)
+    assert model.state.solve().converged
+    assert model.residual_strain_norm() < 1e-8
+
+    fixed = ForwardModel.build(load(SQUARE, overrides + ["growth.frame=cartesian"]))
+    assert np.allclose(fixed.growth.eigenvalues[0].x.array, 4.0, atol=1e-8)
+    assert np.allclose(fixed.growth.eigenvalues[1].x.array, 2.0, atol=1e-8)
+
+
+def test_start_from_the_target_clips_to_the_bounds():
+    """The squircular map is singular at the square's corners (C_d's eigenvalues 18 and 0
+    there): the start is clipped into the bounds, never outside them."""
+    model = ForwardModel.build(load(SQUARE, ["growth.start=target",
+                                             "growth.eigenvalues.initial=null",
+                                             "growth.angles.initial=null"]))
+    for f in model.growth.eigenvalues:
+        assert 0.01 <= f.x.array.min() and f.x.array.max() <= 12.0
+    assert np.isclose(model.growth.eigenvalues[0].x.array.max(), 12.0)
+    assert np.isclose(model.growth.eigenvalues[1].x.array.min(), 0.01)
