@@ -34,11 +34,17 @@ SCENES = [
 PAPER_RATIO = 13.8889
 
 
+def finished(folder: Path) -> dict | None:
+    """The run's summary.json (written when a run ends), or None."""
+    summary = folder / "summary.json"
+    return json.loads(summary.read_text()) if summary.exists() else None
+
+
 def run_scene(name: str, out: Path, ranks: int, overrides: list[str]) -> dict | None:
     folder = out / name
     summary = folder / "summary.json"
-    if summary.exists():  # written when a run ends: done
-        return json.loads(summary.read_text())
+    if summary.exists():  # done
+        return finished(folder)
     cmd = [str(ROOT / ".venv" / "bin" / "shapegrowth"), "run", str(ROOT / "configs" /
                                                                  f"{name}.yaml"),
            "--out", str(folder)]
@@ -62,18 +68,20 @@ def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
              f"`{out.relative_to(ROOT) if out.is_relative_to(ROOT) else out}`; every number "
              "is read from a summary.json.", "",
              "| scene | config | state DOFs | design DOFs | iterations | rho_H initial | "
-             "rho_H final | Hausdorff / size | wall s | ranks | status | paper |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
+             "rho_H final | Hausdorff / size | residual strain | wall s | ranks | status | "
+             "paper |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
     for scene, name, paper, s in rows:
         if s is None:
-            lines.append(f"| {scene} | {name} | - | - | - | - | - | - | - | - | not run | "
+            lines.append(f"| {scene} | {name} | - | - | - | - | - | - | - | - | - | not run | "
                          f"{paper} |")
             continue
         rel = s["hausdorff_final"] / s["target_size"] if s.get("target_size") else float("nan")
         lines.append(
             f"| {scene} | {name} | {s['dofs']['state']} | {s['dofs']['design']} | "
             f"{s['iterations']} | {s['rho_H_initial']:.4g} | {s['rho_H_final']:.4g} | "
-            f"{100 * rel:.2f} % | {s['wall_time_s']:.0f} | {s['mpi_size']} | {s['status']} | "
+            f"{100 * rel:.2f} % | {s.get('residual_strain', float('nan')):.3g} | "
+            f"{s['wall_time_s']:.0f} | {s['mpi_size']} | {s['status']} | "
             f"{paper} |")
     summaries = {name: s for _, name, _, s in rows}
     fixed, free = summaries.get("square_circle_fixed"), summaries.get("square_circle_free")
@@ -85,14 +93,17 @@ def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
     for _, name, _, s in rows:
         if s is None:
             continue
-        for kind in ("shape", "history"):
+        for kind in ("shape", "history", "frame"):
             src = out / name / f"{kind}.png"
             if src.exists():
                 images.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(src, images / f"{name}_{kind}.png")
         lines += [f"### {name}", "",
                   f"![{name}: deformed body and target](img/results/{name}_shape.png)",
-                  f"![{name}: objective history](img/results/{name}_history.png)", ""]
+                  f"![{name}: objective history](img/results/{name}_history.png)"]
+        if (out / name / "frame.png").exists():
+            lines.append(f"![{name}: the optimal eigenvectors](img/results/{name}_frame.png)")
+        lines.append("")
     return "\n".join(lines).rstrip() + "\n"
 
 
@@ -107,9 +118,10 @@ def main() -> int:
     only = {n for n in args.only.split(",") if n}
     rows = []
     for scene, name, paper in SCENES:
-        summary = None
         if not only or name in only:
             summary = run_scene(name, args.out.resolve(), args.ranks, args.overrides)
+        else:  # not asked for: a finished run is still reported
+            summary = finished(args.out.resolve() / name)
         rows.append((scene, name, paper, summary))
     results = args.results.resolve()
     results.parent.mkdir(parents=True, exist_ok=True)

@@ -135,3 +135,39 @@ def write_shape_png(path, u: dolfinx.fem.Function, field: dolfinx.fem.Function,
     ax.legend(loc="best", fontsize=7, markerscale=6)
     fig.tight_layout()
     fig.savefig(path)
+
+
+def write_frame_png(path, u: dolfinx.fem.Function, eigenvalues: list[dolfinx.fem.Function],
+                    angle: dolfinx.fem.Function, target_points: np.ndarray) -> None:
+    """The eigenvector field of a free 2D frame on the deformed body: v1 (dark) and v2
+    (light) at the vertices, each drawn with length proportional to its stretch
+    sqrt(lambda_i), over the body coloured by lambda_hat_1 and the target's points.
+    Collective; rank 0 writes."""
+    comm = u.function_space.mesh.comm
+    surf = surface(u, eigenvalues[0])
+    lam2 = compat.evaluate_at_points(eigenvalues[1], surf.reference)[:, 0]
+    a = compat.evaluate_at_points(angle, surf.reference)[:, 0]
+    target = np.concatenate(comm.allgather(np.asarray(target_points)))
+    if comm.rank != 0:
+        return
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.4, 5.6), dpi=120)
+    ax = fig.subplots()
+    artist = draw(ax, surf, edgecolor="0.85")
+    every = max(1, len(target) // 4000)
+    ax.plot(target[::every, 0], target[::every, 1], ".", ms=1.0, color="r", alpha=0.25)
+    pick = slice(None, None, max(1, len(a) // 500))  # at most ~500 glyphs
+    P, a, lam1, lam2 = surf.deformed[pick], a[pick], surf.values[pick], lam2[pick]
+    span = np.ptp(surf.deformed[:, :2], axis=0).max()
+    scale = 0.05 * span / np.sqrt(max(lam1.max(), lam2.max()))
+    for v, lam, colour in (((np.cos(a), np.sin(a)), lam1, "k"),
+                           ((-np.sin(a), np.cos(a)), lam2, "0.55")):
+        length = scale * np.sqrt(lam)
+        ax.quiver(P[:, 0], P[:, 1], v[0] * length, v[1] * length, color=colour, pivot="mid",
+                  angles="xy", scale_units="xy", scale=1.0, headwidth=0, headlength=0,
+                  headaxislength=0, width=0.004)
+    fig.colorbar(artist, ax=ax, label="lambda_hat_1")
+    ax.set_title("eigenvectors v1 (dark), v2 (light), length ~ sqrt(lambda_i)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)

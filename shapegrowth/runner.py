@@ -1,7 +1,8 @@
 """``shapegrowth run``: build the model, optimise, and write every output.
 
 Outputs in the run folder: summary.json, history.csv, history.png, shape.png (the
-deformed body coloured by lambda_hat_1, the target as dots), fields.xdmf (+ .h5:
+deformed body coloured by lambda_hat_1, the target as dots), frame.png (a free 2D frame:
+its eigenvectors on the deformed body), fields.xdmf (+ .h5:
 displacement, Phi, the filtered growth fields lambda_hat_i/theta_hat_i, the
 eigenvectors v_i, residual_strain) and checkpoint.h5.
 """
@@ -15,7 +16,7 @@ from typing import Any
 
 from . import compat, io
 from .forward import ForwardModel, base_summary
-from .plotting import write_shape_png
+from .plotting import write_frame_png, write_shape_png
 from .optimize import Optimizer
 from .problem import ReducedFunctional, StateSolveError
 from .state import SolveReport
@@ -52,8 +53,12 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         phi = io.deformation_field(model.state.u)
         io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
                         extra=[phi, model.residual_strain_field()])
-        write_shape_png(out / "shape.png", model.state.u, model.state.applied.eigenvalues[0],
+        applied = model.state.applied
+        write_shape_png(out / "shape.png", model.state.u, applied.eigenvalues[0],
                         rf.objective.target.points, "lambda_hat_1")
+        if applied.frame == "free" and applied.dim == 2:
+            write_frame_png(out / "frame.png", model.state.u, applied.eigenvalues,
+                            applied.angles[0], rf.objective.target.points)
     report = final.report if final else SolveReport(converged=False, reason="no state")
     summary = base_summary(cfg, model, report, status, timer)
     first = history[0] if history else None
