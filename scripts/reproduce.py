@@ -32,6 +32,28 @@ SCENES = [
     (6, "square_circle_free", "rho_H 1/13.9 of the fixed frame's"),
 ]
 PAPER_RATIO = 13.8889
+# Why a scene stays above 1 % and what would bring it there: read off its figures and the
+# measurements of docs/TRADEOFFS.md (the numbers are there, not here: every number in
+# RESULTS.md comes from a run folder).
+WHY = {
+    "beam_wave": "its own number; the same model judged on its mesh refined once delivers "
+                 "several points more (TRADEOFFS, scene 1): the growth leans on the clamp's "
+                 "boundary layer, which no mesh this machine can run resolves. What would: a "
+                 "state resolved finer at the clamp, or a smooth growth there (a filter: "
+                 "honest but coarser)",
+    "beam_ring": "the target's two ends coincide: the ring closes on its clamped end, and the "
+                 "body, with no contact in the model, crumples its last elements where it "
+                 "meets the clamp (figure). What would: contact, or a ring left open by a "
+                 "body thickness",
+    "tube_helix": "the coarsest wall that this machine runs to the end (TRADEOFFS, scenes 3 "
+                  "and 5). What would: a finer wall and more iterations",
+    "disk_cone": "within a few tenths of 1 %; the coarse annulus is followed by its "
+                 "refinement to about a point (TRADEOFFS, scene 4). What would: more "
+                 "iterations with smaller MMA moves on a finer annulus",
+    "cylinder_flare": "MMA still improving when the config's iteration budget ended; the model "
+                      "follows its optimum closely (TRADEOFFS, scenes 3 and 5). What would: "
+                      "more iterations",
+}
 
 
 def finished(folder: Path) -> dict | None:
@@ -61,26 +83,50 @@ def run_scene(name: str, out: Path, ranks: int, overrides: list[str]) -> dict | 
     return json.loads(summary.read_text()) if summary.exists() else None
 
 
+def _percent(value: float | None, s: dict) -> str:
+    return "-" if value is None or not s.get("target_size") else \
+        f"{100 * value / s['target_size']:.2f} %"
+
+
+def _trend(history: Path, window: int = 50) -> str:
+    """How much the best rho_H fell over the last ``window`` iterations."""
+    if not history.exists():
+        return "no history"
+    rows = history.read_text().splitlines()[1:]
+    rho = [float(r.split(",")[2]) for r in rows]
+    if len(rho) < 2 * window:
+        return f"{len(rho)} iterations, too few to judge a trend"
+    last, before = min(rho), min(rho[:-window])
+    drop = (before - last) / before
+    verdict = "still improving" if drop > 0.01 else "stalled"
+    return (f"best rho_H {before:.4g} -> {last:.4g} over the last {window} iterations "
+            f"({100 * drop:.1f} %, {verdict})")
+
+
 def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
                      images: Path) -> str:
     lines = ["# Results", "",
              "Made by `make reproduce` (`scripts/reproduce.py`) from the run folders under "
              f"`{out.relative_to(ROOT) if out.is_relative_to(ROOT) else out}`; every number "
-             "is read from a summary.json.", "",
+             "is read from a summary.json. *Hausdorff / size* is the optimiser's best shape "
+             "(its equilibrium, reached by warm starts along its path); *from rest* is the same "
+             "growth applied to the body at rest, the shape a body grown so would take. Where "
+             "the two differ the body has more than one equilibrium for this growth.", "",
              "| scene | config | state DOFs | design DOFs | iterations | rho_H initial | "
-             "rho_H final | Hausdorff / size | residual strain | wall s | ranks | status | "
-             "paper |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
+             "rho_H final | Hausdorff / size | from rest | residual strain | wall s | ranks | "
+             "status | paper |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
     for scene, name, paper, s in rows:
         if s is None:
-            lines.append(f"| {scene} | {name} | - | - | - | - | - | - | - | - | - | not run | "
+            lines.append(f"| {scene} | {name} | - | - | - | - | - | - | - | - | - | - | not run | "
                          f"{paper} |")
             continue
         rel = s["hausdorff_final"] / s["target_size"] if s.get("target_size") else float("nan")
         lines.append(
             f"| {scene} | {name} | {s['dofs']['state']} | {s['dofs']['design']} | "
             f"{s['iterations']} | {s['rho_H_initial']:.4g} | {s['rho_H_final']:.4g} | "
-            f"{100 * rel:.2f} % | {s.get('residual_strain', float('nan')):.3g} | "
+            f"{100 * rel:.2f} % | {_percent(s.get('hausdorff_from_rest'), s)} | "
+            f"{s.get('residual_strain', float('nan')):.3g} | "
             f"{s['wall_time_s']:.0f} | {s['mpi_size']} | {s['status']} | "
             f"{paper} |")
     summaries = {name: s for _, name, _, s in rows}
@@ -89,6 +135,21 @@ def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
         ratio = fixed["rho_H_final"] / free["rho_H_final"]
         lines += ["", f"rho_H(square_circle_fixed) / rho_H(square_circle_free) = **{ratio:.4g}** "
                       f"(paper: {PAPER_RATIO}; same alpha, beta, gamma in both configs).", ""]
+    lines += ["", "## Where a scene misses 1 %", "",
+              "Scenes 1-5 ask for a shape error of at most 1 % of the target size. For each run "
+              "above that: whether its optimiser had stopped improving (the best rho_H over its "
+              "last 50 iterations against the 50 before). "
+              "What each model delivers on its own mesh refined once is in "
+              "[TRADEOFFS.md](TRADEOFFS.md) (\"nested reference\").", ""]
+    for scene, name, _, s in rows:
+        if s is None or scene == 6 or not s.get("target_size"):
+            continue
+        rel = s["hausdorff_final"] / s["target_size"]
+        if rel <= 0.01:
+            continue
+        trend = _trend(out / name / "history.csv")
+        lines.append(f"- {name}: {100 * rel:.2f} % after {s['iterations']} iterations "
+                     f"({s['status']}); {trend}. Why: {WHY.get(name, 'not analysed')}.")
     lines += ["", "## Figures", ""]
     for _, name, _, s in rows:
         if s is None:
