@@ -45,14 +45,21 @@ WHY = {
                  "body, with no contact in the model, crumples its last elements where it "
                  "meets the clamp (figure). What would: contact, or a ring left open by a "
                  "body thickness",
-    "tube_helix": "the coarsest wall that this machine runs to the end (TRADEOFFS, scenes 3 "
-                  "and 5). What would: a finer wall and more iterations",
-    "disk_cone": "within a few tenths of 1 %; the coarse annulus is followed by its "
+    "tube_helix": "from the helix's own metric (growth.start: target) the tube follows the "
+                  "helix closely, and rho_H has stalled near the floor of its smoothing (the "
+                  "config's alpha is soft for a target this long), which hides errors of this "
+                  "size; its wall is also coarse (TRADEOFFS, scenes 3 and 5). What would: a "
+                  "larger alpha with finer point clouds (as for scene 6) and a finer wall "
+                  "(hours on this machine)",
+    "disk_cone": "the thin annulus can hold more than one equilibrium for one growth "
+                 "(TRADEOFFS, \"several equilibria\"), and its coarse model is followed by its "
                  "refinement to about a point (TRADEOFFS, scene 4). What would: more "
                  "iterations with smaller MMA moves on a finer annulus",
-    "cylinder_flare": "MMA still improving when the config's iteration budget ended; the model "
-                      "follows its optimum closely (TRADEOFFS, scenes 3 and 5). What would: "
-                      "more iterations",
+    "cylinder_flare": "MMA stopped at a local optimum whose growth oscillates from element to "
+                      "element round the shell: the rim ends polygonal and short of the "
+                      "target's radius (figure), while the model follows its optimum closely "
+                      "(TRADEOFFS, scenes 3 and 5). What would: a Helmholtz filter against the "
+                      "oscillation, or a start nearer the target",
 }
 
 
@@ -83,6 +90,17 @@ def run_scene(name: str, out: Path, ranks: int, overrides: list[str]) -> dict | 
     return json.loads(summary.read_text()) if summary.exists() else None
 
 
+def _small_png(src: Path, dst: Path) -> None:
+    """A copy reduced to a 128-colour palette (3-5x smaller; the figures are committed)."""
+    try:
+        from PIL import Image
+    except ImportError:
+        shutil.copyfile(src, dst)
+        return
+    with Image.open(src) as image:
+        image.convert("RGB").quantize(colors=128).save(dst, optimize=True)
+
+
 def _percent(value: float | None, s: dict) -> str:
     return "-" if value is None or not s.get("target_size") else \
         f"{100 * value / s['target_size']:.2f} %"
@@ -111,7 +129,10 @@ def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
              "is read from a summary.json. *Hausdorff / size* is the optimiser's best shape "
              "(its equilibrium, reached by warm starts along its path); *from rest* is the same "
              "growth applied to the body at rest, the shape a body grown so would take. Where "
-             "the two differ the body has more than one equilibrium for this growth.", "",
+             "the two differ the body has more than one equilibrium for this growth. Two "
+             "reproductions agree to round-off in their first iterations (parallel runs are "
+             "not bitwise reproducible); hundreds of optimiser iterations amplify that, so "
+             "compare final errors to a few percent of their value, not digit by digit.", "",
              "| scene | config | state DOFs | design DOFs | iterations | rho_H initial | "
              "rho_H final | Hausdorff / size | from rest | residual strain | wall s | ranks | "
              "status | paper |",
@@ -148,8 +169,13 @@ def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
         if rel <= 0.01:
             continue
         trend = _trend(out / name / "history.csv")
+        rest = s.get("hausdorff_from_rest")
+        branch = ""
+        if rest is not None and abs(rest - s["hausdorff_final"]) > 0.05 * s["hausdorff_final"]:
+            branch = (f" The same growth applied from rest reaches another equilibrium "
+                      f"({100 * rest / s['target_size']:.2f} %).")
         lines.append(f"- {name}: {100 * rel:.2f} % after {s['iterations']} iterations "
-                     f"({s['status']}); {trend}. Why: {WHY.get(name, 'not analysed')}.")
+                     f"({s['status']}); {trend}.{branch} Why: {WHY.get(name, 'not analysed')}.")
     lines += ["", "## Figures", ""]
     for _, name, _, s in rows:
         if s is None:
@@ -158,7 +184,7 @@ def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
             src = out / name / f"{kind}.png"
             if src.exists():
                 images.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(src, images / f"{name}_{kind}.png")
+                _small_png(src, images / f"{name}_{kind}.png")
         lines += [f"### {name}", "",
                   f"![{name}: deformed body and target](img/results/{name}_shape.png)",
                   f"![{name}: objective history](img/results/{name}_history.png)"]
