@@ -7,6 +7,7 @@ point evaluation and XDMF output.
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import basix
@@ -14,6 +15,7 @@ import numpy as np
 from mpi4py import MPI
 
 import dolfinx
+import dolfinx.cpp
 import dolfinx.fem
 import dolfinx.fem.petsc  # noqa: F401  (registers dolfinx.fem.petsc)
 import dolfinx.geometry
@@ -36,11 +38,53 @@ def read_gmsh(path: Path, comm: MPI.Comm, gdim: int):
         gmsh.initialize()
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.merge(str(path))
+    # model_to_mesh takes no partitioner in 0.5.2: hand it a create_mesh that uses ours
+    default_create_mesh = gmshio.create_mesh
+    gmshio.create_mesh = functools.partial(
+        default_create_mesh,
+        partitioner=dolfinx.cpp.mesh.create_cell_partitioner(_ordered_partition))
     try:
         return gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=gdim)
     finally:
+        gmshio.create_mesh = default_create_mesh
         if comm.rank == 0:
             gmsh.finalize()
+
+
+def _ordered_partition(comm, nparts: int, graph, ghosting: bool):
+    """A reproducible partition of the cells (the default, PT-SCOTCH, gave the tube mesh
+    485/491 owned DOFs in one build and 475/501 in the next, so runs were not repeatable and
+    a checkpoint's design did not fit another build).  The rank holding the cells orders
+    them by reverse Cuthill-McKee on the dual graph (neighbours stay close) and cuts the
+    order into ``nparts`` equal blocks; with ghosting, a cell is also sent to the owners of
+    its facet neighbours."""
+    import scipy.sparse
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+    offsets, targets = np.asarray(graph.offsets), np.asarray(graph.array)
+    n = len(offsets) - 1
+    if n == 0:
+        return dolfinx.cpp.graph.AdjacencyList_int32(np.zeros(0, dtype=np.int32),
+                                                     np.zeros(1, dtype=np.int32))
+    first = comm.exscan(n) if comm.rank > 0 else 0
+    rows = np.repeat(np.arange(n), np.diff(offsets))
+    local = (targets >= first) & (targets < first + n)
+    adjacency = scipy.sparse.csr_matrix(
+        (np.ones(int(local.sum())), (rows[local], targets[local] - first)), shape=(n, n))
+    order = reverse_cuthill_mckee(adjacency, symmetric_mode=True)
+    owner = np.empty(n, dtype=np.int32)
+    owner[order] = (np.arange(n) * nparts) // n
+    if not ghosting or nparts == 1:
+        return dolfinx.cpp.graph.AdjacencyList_int32(owner.reshape(-1, 1))
+    neighbour_owner = owner[targets[local] - first]
+    dest: list[list[int]] = [[int(p)] for p in owner]
+    for cell, other in zip(rows[local], neighbour_owner):
+        if other != owner[cell] and other not in dest[cell]:
+            dest[cell].append(int(other))
+    lengths = np.array([len(d) for d in dest])
+    return dolfinx.cpp.graph.AdjacencyList_int32(
+        np.concatenate(dest).astype(np.int32),
+        np.concatenate([[0], np.cumsum(lengths)]).astype(np.int32))
 
 
 def reference_quadrature(mesh, degree: int) -> tuple[np.ndarray, np.ndarray]:
