@@ -87,12 +87,16 @@ def _ordered_partition(comm, nparts: int, graph, ghosting: bool):
         np.concatenate([[0], np.cumsum(lengths)]).astype(np.int32))
 
 
-def reference_quadrature(mesh, degree: int) -> tuple[np.ndarray, np.ndarray]:
-    """Points and weights of basix's default quadrature of ``degree`` on the mesh's
-    reference cell (later dolfinx has ``mesh.basix_cell()``)."""
-    cell = {"tetrahedron": basix.CellType.tetrahedron,
-            "triangle": basix.CellType.triangle}[mesh.topology.cell_type.name]
+def simplex_quadrature(dim: int, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """Points and weights of basix's default quadrature of ``degree`` on the reference
+    triangle (dim 2) or tetrahedron (dim 3)."""
+    cell = basix.CellType.tetrahedron if dim == 3 else basix.CellType.triangle
     return basix.make_quadrature(cell, degree)
+
+
+def reference_quadrature(mesh, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """The same on the mesh's reference cell (later dolfinx has ``mesh.basix_cell()``)."""
+    return simplex_quadrature(mesh.topology.dim, degree)
 
 
 def vector_space(mesh, degree: int):

@@ -14,10 +14,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import basix
 import numpy as np
 from mpi4py import MPI
 
+from . import compat
 from .clouds import QuadratureCloud
 from .config import Config, ConfigError
 from .expressions import evaluate
@@ -62,8 +62,7 @@ def mesh_cloud(path: Path, dim: int, degree: int, comm: MPI.Comm) -> PointCloud:
     nodes, cells = _read_simplices(path, dim)
     lo, hi = (len(cells) * comm.rank) // comm.size, (len(cells) * (comm.rank + 1)) // comm.size
     cells = cells[lo:hi]
-    cell_type = basix.CellType.tetrahedron if dim == 3 else basix.CellType.triangle
-    ref_points, ref_weights = basix.make_quadrature(cell_type, degree)
+    ref_points, ref_weights = compat.simplex_quadrature(dim, degree)
     v0 = nodes[cells[:, 0]]
     jac = np.stack([nodes[cells[:, k + 1]] - v0 for k in range(dim)], axis=2)  # (n, dim, dim)
     points = v0[:, None, :] + np.einsum("cij,qj->cqi", jac, ref_points)
