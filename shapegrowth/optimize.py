@@ -253,7 +253,7 @@ class Optimizer:
 
     def _retry_from_rest(self, local: np.ndarray):
         state = self.rf.model.state
-        state.reset()
+        self.rf.restart_from_rest()
         state.initial_step_scale = 0.25
         try:
             return self.rf.evaluate(local, gradient=True)

@@ -126,6 +126,12 @@ class ReducedFunctional:
         self._key, self._last = key, Evaluation(value, grad, report)
         return self._last
 
+    def restart_from_rest(self) -> None:
+        """The next evaluation solves its state from rest (load steps from C_g = I), even for
+        the design evaluated last: the state and the cached evaluation are both dropped."""
+        self.model.state.reset()
+        self._key, self._last = None, None
+
     def _gradient(self, dJdu) -> np.ndarray:
         with self.timer("adjoint", "adjoint_solve"):
             self.adjoint.solve(dJdu)

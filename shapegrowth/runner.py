@@ -61,8 +61,9 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     history = optimizer.history
     # leave the state at the best design for the fields and the final numbers
     final = None
-    if status.startswith("failed"):
-        model.state.reset()  # not a warm start from the state that failed
+    failed = status.startswith("failed")
+    if failed:
+        rf.restart_from_rest()  # not a warm start from the state that failed
     try:
         final = rf.evaluate(optimizer.vec.local(best), gradient=False)
     except StateSolveError as err:
@@ -78,7 +79,8 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         if applied.frame == "free" and applied.dim == 2:
             write_frame_png(out / "frame.png", model.state.u, applied.eigenvalues,
                             applied.angles[0], rf.objective.target.points)
-    from_rest = _from_rest(model, rf) if final else None
+    # a failed run's final state was already solved from rest
+    from_rest = (final.value if failed else _from_rest(model, rf)) if final else None
     report = final.report if final else SolveReport(converged=False, reason="no state")
     summary = base_summary(cfg, model, report, status, timer)
     first = history[0] if history else None
@@ -118,5 +120,5 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
              out)
     log.info("view: paraview %s, Filters > Warp By Vector (displacement), colour by lambda_hat_1",
              out / "fields.xdmf")
-    return RunResult(summary, 0 if not status.startswith("failed") else 1, model)
+    return RunResult(summary, 1 if failed else 0, model)
 

@@ -227,6 +227,36 @@ def test_a_failed_adjoint_solve_ends_the_run_reported(tmp_path, monkeypatch):
     assert s["iterations"] == 1 and (tmp_path / "fields.xdmf").is_file()
 
 
+def test_a_failed_run_solves_its_best_design_again_from_rest(tmp_path, monkeypatch):
+    """The adjoint breaks down at iteration 2, after iteration 1 (the best design) was the
+    last one evaluated: the final state is that design solved from rest, not the cached
+    evaluation over a state reset to zero, so the summary's shape and the shape from rest
+    agree (the arc has one equilibrium) and the fields hold a deformed body."""
+    import h5py
+
+    from shapegrowth.adjoint import AdjointProblem, AdjointSolveError
+
+    real = AdjointProblem.solve
+    calls = {"n": 0}
+
+    def breaks_down(self, dJdu):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise AdjointSolveError("adjoint solve failed (KSP reason -5)")
+        return real(self, dJdu)
+
+    monkeypatch.setattr(AdjointProblem, "solve", breaks_down)
+    assert run_cli("run", ARC, "--out", tmp_path, "-q",
+                   "--set", "optimizer.max_iterations=6") == 1
+    s = read_json(tmp_path / "summary.json")
+    assert s["status"].startswith("failed: at iteration 2")
+    assert s["objective_final"] < s["objective_initial"]  # the best design is not the start
+    assert s["hausdorff_from_rest"] == pytest.approx(s["hausdorff_final"], rel=1e-6)
+    with h5py.File(tmp_path / "fields.h5") as h5:
+        u = np.asarray(next(iter(h5["Function"]["displacement"].values())))
+    assert np.abs(u).max() > 0.1
+
+
 def test_reproduce_writes_results_from_the_run_folders(tmp_path):
     """scripts/reproduce.py: the two square runs, the table with the fixed/free ratio, the
     figures; a second call reads the finished runs back instead of running them."""
