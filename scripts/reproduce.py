@@ -13,6 +13,7 @@ alone: every number in RESULTS.md comes from a run folder.
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import os
 import shutil
@@ -71,8 +72,7 @@ def finished(folder: Path) -> dict | None:
 
 def run_scene(name: str, out: Path, ranks: int, overrides: list[str]) -> dict | None:
     folder = out / name
-    summary = folder / "summary.json"
-    if summary.exists():  # done
+    if (folder / "summary.json").exists():  # done
         return finished(folder)
     cmd = [str(ROOT / ".venv" / "bin" / "shapegrowth"), "run", str(ROOT / "configs" /
                                                                  f"{name}.yaml"),
@@ -87,7 +87,7 @@ def run_scene(name: str, out: Path, ranks: int, overrides: list[str]) -> dict | 
                OPENBLAS_NUM_THREADS="1")
     print(f"reproduce: {name} ({' '.join(cmd[-6:])})", flush=True)
     subprocess.run(cmd, env=env, cwd=ROOT)
-    return json.loads(summary.read_text()) if summary.exists() else None
+    return finished(folder)
 
 
 def _small_png(src: Path, dst: Path) -> None:
@@ -110,8 +110,8 @@ def _trend(history: Path, window: int = 50) -> str:
     """How much the best rho_H fell over the last ``window`` iterations."""
     if not history.exists():
         return "no history"
-    rows = history.read_text().splitlines()[1:]
-    rho = [float(r.split(",")[2]) for r in rows]
+    with history.open(newline="") as f:
+        rho = [float(row["rho_H"]) for row in csv.DictReader(f)]
     if len(rho) < 2 * window:
         return f"{len(rho)} iterations, too few to judge a trend"
     last, before = min(rho), min(rho[:-window])
