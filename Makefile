@@ -14,7 +14,7 @@ export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 export OMPI_MCA_rmaps_base_oversubscribe := 1
 MPIRUN := mpirun -n $(NP)
 
-.PHONY: setup run bend test test-serial test-mpi notebooks bench reproduce reference-docs clean help
+.PHONY: setup run bend test test-serial test-mpi notebooks bench reproduce reproduce-compare reference-docs clean help
 
 help:
 	@echo "make run    - the default scene end to end (installs what is missing)"
@@ -23,6 +23,7 @@ help:
 	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
 	@echo "make bench  - the performance benchmark (results/bench/bench.json, minutes)"
 	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (about an hour)"
+	@echo "make reproduce-compare OTHER=DIR - results/reproduce against a second reproduction's run folders"
 	@echo "make setup  - Debian packages and .venv only"
 
 setup: $(STAMP)
@@ -72,6 +73,11 @@ bench: setup
 # (hours on 2 cores; an interrupted reproduction continues where it stopped).
 reproduce: setup
 	$(BIN)/python scripts/reproduce.py --ranks $(NP)
+
+# docs/REPRODUCIBILITY.md: this clone's reproduction against another's (exit 1 beyond 5 %)
+reproduce-compare: setup
+	@test -n "$(OTHER)" || { echo "reproduce-compare: set OTHER=<another clone>/results/reproduce"; exit 2; }
+	$(BIN)/python scripts/reproduce.py --compare $(OTHER)
 
 # docs/CONFIG.md from the schema (a test checks that it is current)
 reference-docs: setup

@@ -2,12 +2,19 @@
 
     .venv/bin/python scripts/reproduce.py [--ranks 2] [--only NAME,...] [--set KEY=VALUE ...]
                                           [--out results/reproduce] [--results docs/RESULTS.md]
+    .venv/bin/python scripts/reproduce.py --compare OTHER_OUT [--out results/reproduce]
+                                          [--rtol 0.05] [--report docs/REPRODUCIBILITY.md]
 
 Every config of SCENES runs under ``mpirun -n RANKS`` into OUT/NAME, resumed from its
 checkpoint when one is there and skipped when its summary.json is final, so an interrupted
 reproduction continues where it stopped.  The table and the figures (each run's
 history.png and shape.png, copied to docs/img/results/) are then made from the summaries
 alone: every number in RESULTS.md comes from a run folder.
+
+``--compare`` runs nothing: it sets the summaries of OUT beside those of a second
+reproduction OTHER_OUT, quantity by quantity, writes the comparison to REPORT and exits 1
+when any quantity differs by more than RTOL of its value (the sizes of the problems must
+agree exactly).
 """
 
 from __future__ import annotations
@@ -194,6 +201,74 @@ def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
     return "\n".join(lines).rstrip() + "\n"
 
 
+# (label, how to read it from a summary); compared to a relative tolerance
+COMPARED = [
+    ("rho_H final", lambda s: s["rho_H_final"]),
+    ("Hausdorff / size", lambda s: s["hausdorff_final"] / s["target_size"]
+     if s.get("target_size") else None),
+    ("from rest", lambda s: s["hausdorff_from_rest"] / s["target_size"]
+     if s.get("target_size") and s.get("hausdorff_from_rest") is not None else None),
+    ("residual strain", lambda s: s.get("residual_strain")),
+]
+
+
+def _relative(a: float | None, b: float | None) -> float | None:
+    if a is None or b is None:
+        return None
+    scale = max(abs(a), abs(b))
+    return 0.0 if scale == 0 else abs(a - b) / scale
+
+
+def compare(out: Path, other: Path, rtol: float) -> tuple[str, bool]:
+    """Two reproductions side by side: a markdown report and whether they agree to ``rtol``.
+
+    The problem sizes (state and design DOFs) must be equal; the iteration counts must be
+    equal where both runs used their whole budget (a converged run may stop an iteration
+    earlier or later); every value of COMPARED and the fixed/free ratio must agree to
+    ``rtol`` of the larger of the two."""
+    lines = [f"| config | quantity | {out.name} | {other.name} | difference | agrees |",
+             "|---|---|---:|---:|---:|---|"]
+    agree = True
+
+    def row(name: str, label: str, a, b, ok: bool, diff: str = "") -> None:
+        nonlocal agree
+        agree &= ok
+        fmt = (lambda v: "-" if v is None else f"{v:.4g}" if isinstance(v, float) else str(v))
+        lines.append(f"| {name} | {label} | {fmt(a)} | {fmt(b)} | {diff} | "
+                     f"{'yes' if ok else '**no**'} |")
+
+    runs = {}
+    for _, name, _ in SCENES:
+        a, b = finished(out / name), finished(other / name)
+        if a is None or b is None:
+            row(name, "finished", a is not None, b is not None, False)
+            continue
+        runs[name] = (a, b)
+        for key in ("state", "design"):
+            row(name, f"{key} DOFs", a["dofs"][key], b["dofs"][key],
+                a["dofs"][key] == b["dofs"][key])
+        both_used_budget = a["status"] == b["status"] == "max_iterations"
+        row(name, "iterations", a["iterations"], b["iterations"],
+            a["iterations"] == b["iterations"] or not both_used_budget)
+        for label, read in COMPARED:
+            va, vb = read(a), read(b)
+            rel = _relative(va, vb)
+            row(name, label, va, vb, rel is not None and rel <= rtol,
+                "-" if rel is None else f"{100 * rel:.2f} %")
+    if "square_circle_fixed" in runs and "square_circle_free" in runs:
+        (fa, fb), (ga, gb) = runs["square_circle_fixed"], runs["square_circle_free"]
+        ra, rb = fa["rho_H_final"] / ga["rho_H_final"], fb["rho_H_final"] / gb["rho_H_final"]
+        rel = _relative(ra, rb)
+        row("square", "fixed / free ratio", ra, rb, rel <= rtol, f"{100 * rel:.2f} %")
+    verdict = (f"The two reproductions agree: every compared quantity to {100 * rtol:g} % of "
+               "its value, the problem sizes exactly." if agree else
+               f"The two reproductions differ beyond {100 * rtol:g} % (rows marked **no**).")
+    text = "\n".join(["# Reproducibility", "",
+                      f"`scripts/reproduce.py --compare` on `{out}` and `{other}`. {verdict}",
+                      "", *lines]) + "\n"
+    return text, agree
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ranks", type=int, default=2)
@@ -201,7 +276,16 @@ def main() -> int:
     parser.add_argument("--set", dest="overrides", action="append", default=[])
     parser.add_argument("--out", type=Path, default=ROOT / "results" / "reproduce")
     parser.add_argument("--results", type=Path, default=ROOT / "docs" / "RESULTS.md")
+    parser.add_argument("--compare", type=Path, default=None, metavar="OTHER_OUT",
+                        help="compare OUT with a second reproduction instead of running")
+    parser.add_argument("--rtol", type=float, default=0.05)
+    parser.add_argument("--report", type=Path, default=ROOT / "docs" / "REPRODUCIBILITY.md")
     args = parser.parse_args()
+    if args.compare is not None:
+        text, agree = compare(args.out.resolve(), args.compare.resolve(), args.rtol)
+        args.report.write_text(text)
+        print(text, end="")
+        return 0 if agree else 1
     only = {n for n in args.only.split(",") if n}
     rows = []
     for scene, name, paper in SCENES:

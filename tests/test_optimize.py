@@ -275,3 +275,41 @@ def test_reproduce_writes_results_from_the_run_folders(tmp_path):
     again = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
     assert again.returncode == 0 and "reproduce: square" not in again.stdout
     assert (tmp_path / "RESULTS.md").read_text() == text
+
+
+def _reproduce_module():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("reproduce", ROOT / "scripts" / "reproduce.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_reproduce_compare_flags_a_difference_beyond_the_tolerance(tmp_path):
+    """--compare: two reproductions that differ by 1 % agree at rtol 5 % and not at 0.5 %; a
+    different problem size never agrees; a missing run is reported, not skipped."""
+    import json
+
+    reproduce = _reproduce_module()
+
+    def write(out: Path, scale: float, state_dofs: int = 100) -> None:
+        for _, name, _ in reproduce.SCENES:
+            (out / name).mkdir(parents=True)
+            (out / name / "summary.json").write_text(json.dumps({
+                "dofs": {"state": state_dofs, "design": 10}, "iterations": 300,
+                "status": "max_iterations", "rho_H_final": 2.0 * scale,
+                "hausdorff_final": 0.03 * scale, "target_size": 1.0,
+                "hausdorff_from_rest": 0.04 * scale, "residual_strain": 0.5 * scale}))
+
+    write(tmp_path / "a", 1.0)
+    write(tmp_path / "b", 1.01)
+    write(tmp_path / "c", 1.0, state_dofs=101)
+    text, agree = reproduce.compare(tmp_path / "a", tmp_path / "b", rtol=0.05)
+    assert agree and "**no**" not in text and "| square | fixed / free ratio | 1 | 1 |" in text
+    assert not reproduce.compare(tmp_path / "a", tmp_path / "b", rtol=0.005)[1]
+    text, agree = reproduce.compare(tmp_path / "a", tmp_path / "c", rtol=0.05)
+    assert not agree and text.count("| **no** |") == len(reproduce.SCENES)  # the state DOFs
+    (tmp_path / "b" / "beam_ring" / "summary.json").unlink()
+    text, agree = reproduce.compare(tmp_path / "a", tmp_path / "b", rtol=0.05)
+    assert not agree and "| beam_ring | finished | True | False |" in text
