@@ -141,8 +141,8 @@ def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
              "the two differ the body has more than one equilibrium for this growth. Two "
              "reproductions agree to round-off in their first iterations (parallel runs are "
              "not bitwise reproducible); hundreds of optimiser iterations amplify that, so "
-             f"two reproductions are compared to {100 * RTOL:g} % of each value, not digit by digit "
-             "(`make reproduce-compare`, [REPRODUCIBILITY.md](REPRODUCIBILITY.md)).", "",
+             f"two reproductions are compared to {100 * RTOL:g} % of each value, not digit by "
+             "digit (`make reproduce-compare`, [REPRODUCIBILITY.md](REPRODUCIBILITY.md)).", "",
              "| scene | config | state DOFs | design DOFs | iterations | rho_H initial | "
              "rho_H final | Hausdorff / size | from rest | residual strain | wall s | ranks | "
              "status | paper |",
