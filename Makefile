@@ -22,7 +22,7 @@ help:
 	@echo "make test   - the test suite, serial and under mpirun -n $(NP), and the notebooks"
 	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
 	@echo "make bench  - the performance benchmark (results/bench/bench.json, minutes)"
-	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (about an hour)"
+	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (about 30 min)"
 	@echo "make reproduce-compare OTHER=DIR - results/reproduce against a second reproduction's run folders"
 	@echo "make setup  - Debian packages and .venv only"
 

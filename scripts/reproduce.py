@@ -52,8 +52,8 @@ WHY = {
                  "state resolved finer at the clamp, or a smooth growth there (a filter: "
                  "honest but coarser)",
     "beam_ring": "the target's two ends coincide: the ring closes on its clamped end, and the "
-                 "body, with no contact in the model, crumples its last elements where it "
-                 "meets the clamp (figure). What would: contact, or a ring left open by a "
+                 "body, with no contact in the model, crumples a few elements next to the "
+                 "clamp, where its two ends meet (figure). What would: contact, or a ring left open by a "
                  "body thickness",
     "tube_helix": "from the helix's own metric (growth.start: target) the tube follows the "
                   "helix closely, and rho_H has stalled near the floor of its smoothing (the "
