@@ -53,8 +53,8 @@ WHY = {
                  "honest but coarser)",
     "beam_ring": "the target's two ends coincide: the ring closes on its clamped end, and the "
                  "body, with no contact in the model, crumples a few elements next to the "
-                 "clamp, where its two ends meet (figure). What would: contact, or a ring left open by a "
-                 "body thickness",
+                 "clamp, where its two ends meet (figure). What would: contact, or a ring "
+                 "left open by a body thickness",
     "tube_helix": "from the helix's own metric (growth.start: target) the tube follows the "
                   "helix closely, and rho_H has stalled near the floor of its smoothing (the "
                   "config's alpha is soft for a target this long), which hides errors of this "
@@ -229,9 +229,10 @@ def compare(out: Path, other: Path, rtol: float) -> tuple[str, bool]:
     equal where both runs used their whole budget (a converged run may stop an iteration
     earlier or later); every value of COMPARED and the fixed/free ratio must agree to
     ``rtol`` of the larger of the two."""
-    lines = [f"| config | quantity | {out.name} | {other.name} | difference | agrees |",
+    lines = ["| config | quantity | first | second | relative difference | agrees |",
              "|---|---|---:|---:|---:|---|"]
     agree = True
+    largest = 0.0
 
     def row(name: str, label: str, a, b, ok: bool, diff: str = "") -> None:
         nonlocal agree
@@ -256,18 +257,22 @@ def compare(out: Path, other: Path, rtol: float) -> tuple[str, bool]:
         for label, read in COMPARED:
             va, vb = read(a), read(b)
             rel = _relative(va, vb)
+            largest = max(largest, rel or 0.0)
             row(name, label, va, vb, rel is not None and rel <= rtol,
-                "-" if rel is None else f"{100 * rel:.2f} %")
+                "-" if rel is None else f"{rel:.1e}")
     if "square_circle_fixed" in runs and "square_circle_free" in runs:
         (fa, fb), (ga, gb) = runs["square_circle_fixed"], runs["square_circle_free"]
         ra, rb = fa["rho_H_final"] / ga["rho_H_final"], fb["rho_H_final"] / gb["rho_H_final"]
         rel = _relative(ra, rb)
-        row("square", "fixed / free ratio", ra, rb, rel <= rtol, f"{100 * rel:.2f} %")
+        largest = max(largest, rel)
+        row("square", "fixed / free ratio", ra, rb, rel <= rtol, f"{rel:.1e}")
     verdict = (f"The two reproductions agree: every compared quantity to {100 * rtol:g} % of "
-               "its value, the problem sizes exactly." if agree else
+               f"its value (the largest difference is {100 * largest:.2g} %), the problem "
+               "sizes exactly." if agree else
                f"The two reproductions differ beyond {100 * rtol:g} % (rows marked **no**).")
     text = "\n".join(["# Reproducibility", "",
-                      f"`scripts/reproduce.py --compare` on `{out}` and `{other}`. {verdict}",
+                      f"`scripts/reproduce.py --compare`: first `{out}`, second `{other}`. "
+                      f"{verdict}",
                       "", *lines]) + "\n"
     return text, agree
 

@@ -306,7 +306,7 @@ def test_reproduce_compare_flags_a_difference_beyond_the_tolerance(tmp_path):
     write(tmp_path / "b", 1.01)
     write(tmp_path / "c", 1.0, state_dofs=101)
     text, agree = reproduce.compare(tmp_path / "a", tmp_path / "b", rtol=0.05)
-    assert agree and "**no**" not in text and "| square | fixed / free ratio | 1 | 1 |" in text
+    assert agree and "**no**" not in text and "| square | fixed / free ratio | 1 | 1 | 0.0e+00 | yes |" in text
     assert not reproduce.compare(tmp_path / "a", tmp_path / "b", rtol=0.005)[1]
     text, agree = reproduce.compare(tmp_path / "a", tmp_path / "c", rtol=0.05)
     assert not agree and text.count("| **no** |") == len(reproduce.SCENES)  # the state DOFs
