@@ -272,7 +272,11 @@ def compare(out: Path, other: Path, rtol: float) -> tuple[str, bool]:
                f"The two reproductions differ beyond {100 * rtol:g} % (rows marked **no**).")
     text = "\n".join(["# Reproducibility", "",
                       f"`scripts/reproduce.py --compare`: first `{out}`, second `{other}`. "
-                      f"{verdict}",
+                      f"{verdict}", "",
+                      "Serial runs repeat bit for bit. Under MPI, MUMPS's parallel "
+                      "factorisation is not bitwise repeatable (measure it with "
+                      "`scripts/solver_repeatability.py`); the optimiser amplifies those last "
+                      "digits over its iterations, by a different amount in each scene.",
                       "", *lines]) + "\n"
     return text, agree
 
