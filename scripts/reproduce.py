@@ -81,8 +81,9 @@ def finished(folder: Path) -> dict | None:
 
 def run_scene(name: str, out: Path, ranks: int, overrides: list[str]) -> dict | None:
     folder = out / name
-    if (folder / "summary.json").exists():  # done
-        return finished(folder)
+    done = finished(folder)
+    if done is not None:
+        return done
     cmd = [str(ROOT / ".venv" / "bin" / "shapegrowth"), "run", str(ROOT / "configs" /
                                                                  f"{name}.yaml"),
            "--out", str(folder)]
@@ -110,9 +111,15 @@ def _small_png(src: Path, dst: Path) -> None:
         image.convert("RGB").quantize(colors=128).save(dst, optimize=True)
 
 
-def _percent(value: float | None, s: dict) -> str:
-    return "-" if value is None or not s.get("target_size") else \
-        f"{100 * value / s['target_size']:.2f} %"
+def _per_size(s: dict, key: str) -> float | None:
+    """A distance of the summary relative to the target size, or None if either is missing."""
+    value, size = s.get(key), s.get("target_size")
+    return None if value is None or not size else value / size
+
+
+def _percent(s: dict, key: str) -> str:
+    value = _per_size(s, key)
+    return "-" if value is None else f"{100 * value:.2f} %"
 
 
 def _trend(history: Path, window: int = 50) -> str:
@@ -152,11 +159,10 @@ def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
             lines.append(f"| {scene} | {name} | - | - | - | - | - | - | - | - | - | - | not run | "
                          f"{paper} |")
             continue
-        rel = s["hausdorff_final"] / s["target_size"] if s.get("target_size") else float("nan")
         lines.append(
             f"| {scene} | {name} | {s['dofs']['state']} | {s['dofs']['design']} | "
             f"{s['iterations']} | {s['rho_H_initial']:.4g} | {s['rho_H_final']:.4g} | "
-            f"{100 * rel:.2f} % | {_percent(s.get('hausdorff_from_rest'), s)} | "
+            f"{_percent(s, 'hausdorff_final')} | {_percent(s, 'hausdorff_from_rest')} | "
             f"{s.get('residual_strain', float('nan')):.3g} | "
             f"{s['wall_time_s']:.0f} | {s['mpi_size']} | {s['status']} | "
             f"{paper} |")
@@ -173,17 +179,15 @@ def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
               "What each model delivers on its own mesh refined once is in "
               "[TRADEOFFS.md](TRADEOFFS.md) (\"nested reference\").", ""]
     for scene, name, _, s in rows:
-        if s is None or scene == 6 or not s.get("target_size"):
-            continue
-        rel = s["hausdorff_final"] / s["target_size"]
-        if rel <= 0.01:
+        rel = None if s is None or scene == 6 else _per_size(s, "hausdorff_final")
+        if rel is None or rel <= 0.01:
             continue
         trend = _trend(out / name / "history.csv")
-        rest = s.get("hausdorff_from_rest")
+        rest = _per_size(s, "hausdorff_from_rest")
         branch = ""
-        if rest is not None and abs(rest - s["hausdorff_final"]) > 0.05 * s["hausdorff_final"]:
+        if rest is not None and abs(rest - rel) > 0.05 * rel:
             branch = (f" The same growth applied from rest reaches another equilibrium "
-                      f"({100 * rest / s['target_size']:.2f} %).")
+                      f"({100 * rest:.2f} %).")
         lines.append(f"- {name}: {100 * rel:.2f} % after {s['iterations']} iterations "
                      f"({s['status']}); {trend}.{branch} Why: {WHY.get(name, 'not analysed')}.")
     lines += ["", "## Figures", ""]
@@ -207,10 +211,8 @@ def results_markdown(rows: list[tuple[int, str, str, dict | None]], out: Path,
 # (label, how to read it from a summary); compared to a relative tolerance
 COMPARED = [
     ("rho_H final", lambda s: s["rho_H_final"]),
-    ("Hausdorff / size", lambda s: s["hausdorff_final"] / s["target_size"]
-     if s.get("target_size") else None),
-    ("from rest", lambda s: s["hausdorff_from_rest"] / s["target_size"]
-     if s.get("target_size") and s.get("hausdorff_from_rest") is not None else None),
+    ("Hausdorff / size", lambda s: _per_size(s, "hausdorff_final")),
+    ("from rest", lambda s: _per_size(s, "hausdorff_from_rest")),
     ("residual strain", lambda s: s.get("residual_strain")),
 ]
 

@@ -34,11 +34,17 @@ def read_json(path: Path) -> dict:
     return json.loads(Path(path).read_text())
 
 
-def run_subprocess(args: list[str], ranks: int = 1, **kwargs) -> subprocess.CompletedProcess:
-    """Run the installed console script, optionally under mpirun."""
-    cmd = [str(BIN / "shapegrowth"), *map(str, args)]
+def run_program(cmd: list[str], ranks: int = 1, **kwargs) -> subprocess.CompletedProcess:
+    """Run a command from the repository root, optionally under mpirun (as root, and
+    oversubscribed beyond the cores), capturing its output."""
+    cmd = [str(c) for c in cmd]
     if ranks > 1:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OMPI_MCA_rmaps_base_oversubscribe="1")
     return subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, **kwargs)
+
+
+def run_subprocess(args: list[str], ranks: int = 1, **kwargs) -> subprocess.CompletedProcess:
+    """Run the installed console script, optionally under mpirun."""
+    return run_program([BIN / "shapegrowth", *args], ranks, **kwargs)

@@ -205,9 +205,9 @@ def test_a_non_finite_objective_never_reaches_the_optimiser(tmp_path, monkeypatc
     assert s["iterations"] == 2 and np.isfinite(s["objective_final"])
 
 
-def test_a_failed_adjoint_solve_ends_the_run_reported(tmp_path, monkeypatch):
-    """An iterative adjoint solver that breaks down (seen with GAMG on a thin beam) ends the
-    run with its reason and the best design, not with a traceback."""
+def _adjoint_breaks_down_at(monkeypatch, call: int) -> None:
+    """The adjoint solve fails, as an iterative solver that breaks down would, at its
+    ``call``-th call (1-based) and works otherwise."""
     from shapegrowth.adjoint import AdjointProblem, AdjointSolveError
 
     real = AdjointProblem.solve
@@ -215,11 +215,17 @@ def test_a_failed_adjoint_solve_ends_the_run_reported(tmp_path, monkeypatch):
 
     def breaks_down(self, dJdu):
         calls["n"] += 1
-        if calls["n"] == 2:
+        if calls["n"] == call:
             raise AdjointSolveError("adjoint solve failed (KSP reason -5)")
         return real(self, dJdu)
 
     monkeypatch.setattr(AdjointProblem, "solve", breaks_down)
+
+
+def test_a_failed_adjoint_solve_ends_the_run_reported(tmp_path, monkeypatch):
+    """An iterative adjoint solver that breaks down (seen with GAMG on a thin beam) ends the
+    run with its reason and the best design, not with a traceback."""
+    _adjoint_breaks_down_at(monkeypatch, 2)
     code = run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=6")
     s = read_json(tmp_path / "summary.json")
     assert code == 1
@@ -234,18 +240,7 @@ def test_a_failed_run_solves_its_best_design_again_from_rest(tmp_path, monkeypat
     agree (the arc has one equilibrium) and the fields hold a deformed body."""
     import h5py
 
-    from shapegrowth.adjoint import AdjointProblem, AdjointSolveError
-
-    real = AdjointProblem.solve
-    calls = {"n": 0}
-
-    def breaks_down(self, dJdu):
-        calls["n"] += 1
-        if calls["n"] == 3:
-            raise AdjointSolveError("adjoint solve failed (KSP reason -5)")
-        return real(self, dJdu)
-
-    monkeypatch.setattr(AdjointProblem, "solve", breaks_down)
+    _adjoint_breaks_down_at(monkeypatch, 3)
     assert run_cli("run", ARC, "--out", tmp_path, "-q",
                    "--set", "optimizer.max_iterations=6") == 1
     s = read_json(tmp_path / "summary.json")

@@ -12,9 +12,7 @@
 from __future__ import annotations
 
 import math
-import os
 import re
-import subprocess
 import sys
 
 import numpy as np
@@ -22,7 +20,7 @@ import pytest
 import ufl
 from scipy.optimize import fsolve
 
-from conftest import CONFIGS, ROOT, read_json, run_cli, run_subprocess
+from conftest import CONFIGS, ROOT, read_json, run_cli, run_program, run_subprocess
 from shapegrowth import closed_forms as cf
 from shapegrowth.config import from_dict
 from shapegrowth.forward import ForwardModel
@@ -268,13 +266,11 @@ def test_linear_solve_repeats_bit_for_bit_serially_and_to_round_off_on_two_ranks
     """scripts/solver_repeatability.py (README, "Repeatability"): 20 fresh MUMPS factorisations
     of one tangent give identical solutions serially; on 2 ranks (dynamic scheduling) they
     may differ, but only at round-off."""
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    script = [sys.executable, str(ROOT / "scripts" / "solver_repeatability.py"),
-              str(ROOT / "configs" / "tiny" / "beam_bend.yaml"), "--repeats", "20"]
+    script = [sys.executable, ROOT / "scripts" / "solver_repeatability.py",
+              CONFIGS / "tiny" / "beam_bend.yaml", "--repeats", "20"]
     spreads = {}
     for ranks in (1, 2):
-        cmd = script if ranks == 1 else ["mpirun", "-n", "2", *script]
-        done = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT)
+        done = run_program(script, ranks)
         assert done.returncode == 0, done.stderr
         match = re.search(r"(\d) rank\(s\), 20 factorisations: largest difference (\S+) ",
                           done.stdout)
