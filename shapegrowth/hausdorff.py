@@ -89,6 +89,7 @@ class _Direction:
     radius: np.ndarray
     grid: cellgrid.SourceGrid
     q_total: float  # total weight of the queries (all ranks)
+    s_total: float  # total weight of the sources
     farthest: float  # largest nearest-source distance of a query (all ranks)
 
 
@@ -165,7 +166,7 @@ class SmoothHausdorff:
         A = comm.allreduce(float(np.sum(q_weights * d**self.beta)), MPI.SUM)
         farthest = comm.allreduce(float(nearest.max(initial=0.0)), MPI.MAX)
         return _Direction((A / q_total) ** (1.0 / self.beta), d, mu, Z, V, gmin, radius, grid,
-                          q_total, farthest)
+                          q_total, total, farthest)
 
     def soft_distance(self, points: np.ndarray, cloud: PointCloud) -> np.ndarray:
         """The soft distance d_cloud(x) of (2.9) for each of ``points`` (serial)."""
@@ -177,7 +178,7 @@ class SmoothHausdorff:
 
     def __call__(self, body: PointCloud, target: PointCloud, comm: MPI.Comm = MPI.COMM_SELF,
                  gradient: bool = True) -> HausdorffResult:
-        alpha, beta, gamma = self.alpha, self.beta, self.gamma
+        gamma = self.gamma
         b_all, wb_all, b_off = body.gathered(comm)
         t_all, wt_all, _ = target.gathered(comm)
         b_own, wb_own = cellgrid.as3(body.points), np.asarray(body.weights, dtype=float)
@@ -186,48 +187,76 @@ class SmoothHausdorff:
         # target -> body: the target points do not move, only the sources' gradient is needed
         d1 = self._mean_distance(t_own, wt_own, b_all, wb_all, comm, query_gradient=False)
         d2 = self._mean_distance(b_own, wb_own, t_all, wt_all, comm)  # body -> target
-        D1, D2, WB, WT = d1.mean, d2.mean, d2.q_total, d1.q_total
-        grid_b, grid_t = d1.grid, d2.grid
-        d_t, mu_t, Z_t, gmin_t, rad_t = d1.d, d1.mu, d1.Z, d1.gmin, d1.radius
-        d_b, mu_b, Z_b, V_b = d2.d, d2.mu, d2.Z, d2.V
-
+        D1, D2 = d1.mean, d2.mean
         rho = (D1**gamma + D2**gamma) ** (1.0 / gamma)
-        truncated = grid_b.ncells > 1 or grid_t.ncells > 1
+        truncated = d1.grid.ncells > 1 or d2.grid.ncells > 1
         result = HausdorffResult(rho, D1, D2, max(d1.farthest, d2.farthest),
                                  truncated=truncated)
         if not gradient:
             return result
-
         dr_dD1 = rho ** (1 - gamma) * D1 ** (gamma - 1)
         dr_dD2 = rho ** (1 - gamma) * D2 ** (gamma - 1)
+        q_pts, q_w = self._query_part(d2, wb_own)  # D2 through the body points as queries
+        s_pts, s_w = self._source_part(d1, t_own, wt_own, wb_own, b_off, comm)  # D1: sources
+        dim = body.points.shape[1]
+        result.grad_points = (dr_dD2 * q_pts + dr_dD1 * s_pts)[:, :dim]
+        result.grad_weights = dr_dD2 * q_w + dr_dD1 * s_w
+        return result
+
+    def self_distance(self, cloud: PointCloud, comm: MPI.Comm = MPI.COMM_SELF,
+                      gradient: bool = True) -> HausdorffResult:
+        """rho_H(A, A) of a cloud with itself, and its gradient with respect to the cloud.
+
+        Both directed terms are the same mean D of the soft distances of A's points to A,
+        so rho_H(A, A) = 2^(1/gamma) D and one pair sum serves both; a point moves as a
+        query and as a source at once, so its gradient is the sum of the two parts (the
+        pair of a point with itself has r = 0 in both roles and contributes nothing)."""
+        pts_all, w_all, offset = cloud.gathered(comm)
+        own, w_own = cellgrid.as3(cloud.points), np.asarray(cloud.weights, dtype=float)
+        d = self._mean_distance(own, w_own, pts_all, w_all, comm, query_gradient=gradient)
+        scale = 2.0 ** (1.0 / self.gamma)
+        result = HausdorffResult(scale * d.mean, d.mean, d.mean, 0.0,
+                                 truncated=d.grid.ncells > 1)
+        if gradient:
+            q_pts, q_w = self._query_part(d, w_own)
+            s_pts, s_w = self._source_part(d, own, w_own, w_own, offset, comm)
+            result.grad_points = scale * (q_pts + s_pts)[:, :cloud.points.shape[1]]
+            result.grad_weights = scale * (q_w + s_w)
+        return result
+
+    def _query_part(self, d: "_Direction", q_weights: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """dD/d(own query points) (n, 3) and dD/d(own query weights) of one directed mean."""
+        beta, D, W = self.beta, d.mean, d.q_total
+        dD_dA = D ** (1 - beta) / (beta * W)
         tiny = np.finfo(float).tiny
+        pts = (dD_dA * beta) * (q_weights * np.maximum(d.d, tiny) ** (beta - 1)
+                                * d.mu / d.Z)[:, None] * d.V
+        return pts, dD_dA * d.d**beta - D / (beta * W)
 
-        # D2's gradient: own body points directly
-        dD2_dA2 = D2 ** (1 - beta) / (beta * WB)
-        grad_pts = (dr_dD2 * dD2_dA2 * beta) * (wb_own * np.maximum(d_b, tiny) ** (beta - 1)
-                                                * mu_b / Z_b)[:, None] * V_b
-        grad_w = dr_dD2 * (dD2_dA2 * d_b**beta - D2 / (beta * WB))
-
-        # D1's gradient: through every soft distance d_B(t), summed over the target points
-        c_t = D1 ** (1 - beta) * wt_own * np.maximum(d_t, tiny) ** (beta - 1) / WT
-        coef = c_t * mu_t / Z_t
-        nchunks = max(1, min(8, len(t_own)))
-        order = grid_b.locality_order(t_own)
-        acc = kernels.soft_source_gradient(np.ascontiguousarray(t_own[order]), grid_b.xyz,
-                                           grid_b.origin, grid_b.cell, grid_b.shape,
-                                           grid_b.start, gmin_t[order], rad_t[order], alpha,
+    def _source_part(self, d: "_Direction", queries: np.ndarray, q_weights: np.ndarray,
+                     s_weights: np.ndarray, s_offset: int, comm: MPI.Comm
+                     ) -> tuple[np.ndarray, np.ndarray]:
+        """dD/d(own source points) (n, 3) and dD/d(own source weights) of one directed mean:
+        through every soft distance of a query, summed over all ranks' queries."""
+        beta, D = self.beta, d.mean
+        tiny = np.finfo(float).tiny
+        c = D ** (1 - beta) * q_weights * np.maximum(d.d, tiny) ** (beta - 1) / d.q_total
+        coef = c * d.mu / d.Z
+        nchunks = max(1, min(8, len(queries)))
+        grid = d.grid
+        order = grid.locality_order(queries)
+        acc = kernels.soft_source_gradient(np.ascontiguousarray(queries[order]), grid.xyz,
+                                           grid.origin, grid.cell, grid.shape, grid.start,
+                                           d.gmin[order], d.radius[order], self.alpha,
                                            self.rational, coef[order], nchunks)
         full = np.empty_like(acc)
-        full[grid_b.order] = acc  # back to the gathered order
+        full[grid.order] = acc  # back to the gathered order
         comm.Allreduce(MPI.IN_PLACE, full, op=MPI.SUM)
-        sum_coef = comm.allreduce(float(np.sum(c_t * mu_t)), MPI.SUM)
-        mine = full[b_off:b_off + len(b_own)]
-        dim = body.points.shape[1]
-        grad_pts += dr_dD1 * (-wb_own[:, None] * mine[:, :3])
-        grad_w += dr_dD1 * (-(1.0 / alpha) * (mine[:, 3] - sum_coef / WB))
-        result.grad_points = grad_pts[:, :dim]
-        result.grad_weights = grad_w
-        return result
+        sum_coef = comm.allreduce(float(np.sum(c * d.mu)), MPI.SUM)
+        mine = full[s_offset:s_offset + len(s_weights)]
+        return (-s_weights[:, None] * mine[:, :3],
+                -(1.0 / self.alpha) * (mine[:, 3] - sum_coef / d.s_total))
 
 
 def exact_hausdorff(a: PointCloud, b: PointCloud, comm: MPI.Comm = MPI.COMM_SELF) -> float:
