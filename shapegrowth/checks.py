@@ -61,6 +61,13 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     _check_expressions(cfg, growth, errors)
     if cfg.target is not None:
         _check_target(cfg, errors)
+    alphas = cfg.objective.hausdorff.alphas
+    if not alphas or any(a is None or a <= 0 for a in alphas):
+        errors.append("objective.hausdorff.alpha: give a positive number or a list of them, "
+                      "e.g. [100, 300, 1000]")
+    elif any(b < a for a, b in zip(alphas, alphas[1:])):
+        errors.append("objective.hausdorff.alpha: a schedule must not decrease (it starts "
+                      "smooth and ends sharp), e.g. [100, 300, 1000]")
     if cfg.solver.continuation.min_step > cfg.solver.continuation.initial_step:
         errors.append("solver.continuation.min_step: must not exceed initial_step")
     for key in cfg.solver.petsc_options:

@@ -143,19 +143,36 @@ class TargetConfig:
     map: tuple[Scalar, ...] | None = option("target map Phi_d(X), one expression per component",
                                             None)
     mesh: str | None = option("target body as a mesh file (gmsh .msh)", None)
+    weights: str = option(
+        "map targets: the measure of the target cloud: 'volume' w_q |det grad Phi_d| (the "
+        "target's own volume; the push-forward where the map has no volume) or 'pushforward' "
+        "w_q (the reference measure carried by the map)", "volume",
+        choices=("volume", "pushforward"))
 
 
 @dataclass(frozen=True)
 class HausdorffConfig:
     phi: str = option("phi of (2.9): exp(-t) or rational 1/(1+t)", "exp",
                       choices=("exp", "rational"))
-    alpha: float = option("alpha of (2.9) (sharpness; scales like 1/length)", 100.0, gt=0)
+    alpha: float | tuple[float, ...] = option(
+        "alpha of (2.9) (sharpness; scales like 1/length), or a rising schedule such as "
+        "[100, 300, 1000]: each value in turn, the next one when the optimiser stalls or the "
+        "stage's share of optimizer.max_iterations is spent", 100.0, gt=0)
+    form: str = option(
+        "the shape term minimised: 'debiased' rho_H(B,T) - (rho_H(B,B) + rho_H(T,T))/2, zero "
+        "when body and target coincide; 'paper' rho_H(B,T) of (2.9), biased by ~log(alpha)/alpha",
+        "debiased", choices=("debiased", "paper"))
     beta: float = option("beta of (2.9)", 2.0, gt=0)
     gamma: float = option("gamma of (2.9)", 2.0, gt=0)
     quadrature_degree: int = option("quadrature degree of the point clouds of both bodies", 2,
                                     ge=1, le=8)
     cutoff: float = option("pairs whose term is below exp(-cutoff) of the nearest are skipped "
                            "(where that prunes)", 20.0, ge=5)
+
+    @property
+    def alphas(self) -> tuple[float, ...]:
+        """The alpha schedule (one value without continuation)."""
+        return tuple(self.alpha) if isinstance(self.alpha, tuple) else (float(self.alpha),)
 
 
 @dataclass(frozen=True)
@@ -174,9 +191,14 @@ class ObjectiveConfig:
 
 @dataclass(frozen=True)
 class OptimizerConfig:
-    algorithm: str = option("NLopt algorithm", "mma", choices=("mma", "slsqp"))
+    algorithm: str = option(
+        "NLopt algorithm: mma, slsqp (dense quasi-Newton: O(n^2) memory, O(n^3) time per "
+        "iteration) or lbfgs (limited-memory quasi-Newton with bounds, O(n))", "lbfgs",
+        choices=("mma", "slsqp", "lbfgs"))
     max_iterations: int = option("iteration limit", 100, ge=0)
-    ftol_rel: float = option("stop on relative objective change below this", 1.0e-6, ge=0)
+    ftol_rel: float = option("stop on relative objective change below this (the debiased "
+                             "shape term, which tends to 0, also stops on a change below this "
+                             "times rho_H(target, target))", 1.0e-6, ge=0)
     xtol_rel: float = option("stop on relative design change below this", 0.0, ge=0)
     move_limit: float = option("MMA works in a box of +- this around the current design "
                                "(0: the whole bounds); SLSQP always uses the whole bounds",

@@ -78,6 +78,7 @@ class ReducedFunctional:
         self._indices = [growth.fields.index(f) for f in self.targets]
         self._key: bytes | None = None
         self._last: Evaluation | None = None
+        self._report: SolveReport | None = None  # the state solve of the design ``_key``
         self.evaluations = 0
 
     # ---- the design vector -----------------------------------------------------------------
@@ -108,15 +109,16 @@ class ReducedFunctional:
                 self._last.gradient is not None or not gradient):
             return self._last
         state = self.model.state
-        if key != self._key:
+        if key != self._key or self._report is None:
             self._apply(m)
             with self.timer("forward"):
                 report = state.solve()
             if not report.converged:
-                self._key, self._last = None, None
+                self._key, self._last, self._report = None, None, None
                 raise StateSolveError(report)
+            self._report = report
         else:
-            report = self._last.report
+            report = self._report  # the state is this design's: only J (and dJ) are new
         self.evaluations += 1
         with self.timer("hausdorff"):
             value, dJdu = self.objective.evaluate(gradient)
@@ -130,7 +132,18 @@ class ReducedFunctional:
         """The next evaluation solves its state from rest (load steps from C_g = I), even for
         the design evaluated last: the state and the cached evaluation are both dropped."""
         self.model.state.reset()
-        self._key, self._last = None, None
+        self._key, self._last, self._report = None, None, None
+
+    @property
+    def alpha(self) -> float:
+        return self.objective.alpha
+
+    def set_alpha(self, alpha: float) -> None:
+        """One stage of an alpha schedule: J changes, the state does not (the cached
+        equilibrium is kept, the cached J and dJ are dropped)."""
+        if alpha != self.objective.alpha:
+            self.objective.set_alpha(alpha)
+            self._last = None
 
     def _gradient(self, dJdu) -> np.ndarray:
         with self.timer("adjoint", "adjoint_solve"):

@@ -1,10 +1,12 @@
 """The target shape as a weighted point cloud.
 
 * ``target: {map: [...]}``: the points Phi_d(X_q) at the body's reference
-  quadrature points with the reference weights w_q, i.e. the push-forward of the
-  reference measure by Phi_d.  This is well defined when det grad Phi_d = 0 (the
-  targets of scenes 2 and 5 do not depend on one coordinate and have no volume),
-  where the target's own volume measure would vanish.
+  quadrature points with the weights w_q |det grad Phi_d(X_q)|, the target's own
+  volume measure (``target.weights: volume``): a body that takes the target shape
+  then has exactly the target's cloud, points and weights.  Where det grad Phi_d = 0
+  (the targets of scenes 2 and 5 do not depend on one coordinate and have no volume)
+  that measure vanishes, and the push-forward of the reference measure (weights w_q)
+  is used there; ``target.weights: pushforward`` uses it everywhere.
 * ``target: {mesh: file}``: the quadrature points of the target mesh's cells with
   their physical weights (gmsh .msh through gmsh; other formats through meshio
   when it is installed).  Each rank takes a contiguous share of the cells.
@@ -35,14 +37,29 @@ def target_cloud(cfg: Config, cloud: QuadratureCloud, comm: MPI.Comm) -> PointCl
         points = np.column_stack([evaluate(e, X, params, axis) for e in target.map])
         if not np.isfinite(points).all():
             raise ConfigError(["target.map: the map is not finite everywhere on the body"])
-        return PointCloud(points, cloud.w.copy())
+        return PointCloud(points, cloud.w * map_jacobian(cfg, X, target.weights))
     return mesh_cloud(Path(target.mesh), cfg.dim, cloud.degree, comm)
 
 
-def target_metric(cfg: Config, X: np.ndarray) -> np.ndarray:
-    """C_d = grad Phi_d^T grad Phi_d of ``target.map`` at the points X (3, n), by central
-    differences: (n, dim, dim).  The step, 1e-5 of each point's distance to the origin (at
-    least 1e-8), depends on the point alone, so every partition gets the same values."""
+# |det grad Phi_d| below this is a map without volume there (scenes 2 and 5)
+DEGENERATE = 1e-6
+
+
+def map_jacobian(cfg: Config, X: np.ndarray, weights: str) -> np.ndarray:
+    """The factor on the reference weights w_q of a target map's cloud: |det grad Phi_d|
+    (``volume``: the target's own volume measure, which the deformed body's J w_q matches
+    where it takes the target shape) where that is positive, 1 (the push-forward of the
+    reference measure) where the map has no volume and for ``pushforward``."""
+    if weights == "pushforward":
+        return np.ones(X.shape[1])
+    det = np.abs(np.linalg.det(target_gradient(cfg, X)))
+    return np.where(det > DEGENERATE, det, 1.0)
+
+
+def target_gradient(cfg: Config, X: np.ndarray) -> np.ndarray:
+    """grad Phi_d of ``target.map`` at the points X (3, n), by central differences:
+    (n, dim, dim).  The step, 1e-5 of each point's distance to the origin (at least 1e-8),
+    depends on the point alone, so every partition gets the same values."""
     dim = cfg.dim
     params, axis = cfg.expression_params, cfg.cylinder_axis
     step = 1e-5 * np.maximum(np.abs(X[:dim]).max(axis=0), 1e-3)
@@ -54,6 +71,12 @@ def target_metric(cfg: Config, X: np.ndarray) -> np.ndarray:
         for i, e in enumerate(cfg.target.map[:dim]):
             grad[:, i, j] = (evaluate(e, plus, params, axis)
                              - evaluate(e, minus, params, axis)) / (2 * step)
+    return grad
+
+
+def target_metric(cfg: Config, X: np.ndarray) -> np.ndarray:
+    """C_d = grad Phi_d^T grad Phi_d of ``target.map`` at the points X (3, n)."""
+    grad = target_gradient(cfg, X)
     return np.einsum("nki,nkj->nij", grad, grad)
 
 

@@ -38,6 +38,13 @@ def test_minimal_config_gets_documented_defaults(tmp_path):
     assert cfg.growth.eigenvalues.design == (1, 2, 3)
     assert cfg.loads.body_force == (0.0, 0.0, 0.0)
     assert cfg.output_dir == Path("results/t")
+    assert cfg.objective.hausdorff.form == "debiased"
+    assert cfg.objective.hausdorff.alphas == (100.0,)
+
+
+def test_an_alpha_schedule_is_a_list(tmp_path):
+    cfg = load(write(tmp_path, BASE), ["objective.hausdorff.alpha=[100, 300, 1000]"])
+    assert cfg.objective.hausdorff.alphas == (100.0, 300.0, 1000.0)
 
 
 @pytest.mark.parametrize("extra, key, words", [
@@ -58,6 +65,15 @@ def test_minimal_config_gets_documented_defaults(tmp_path):
     ("boundary: {clamp: rigid}\nmesh: {size: 0.05, clamp_size: 0.01}", "mesh.clamp_size",
      "only a box clamped at x1_min"),
     ("loads: {traction: {x9_max: [0, 0, 1]}}", "loads.traction.x9_max", "not a boundary"),
+    ("objective: {hausdorff: {alpha: [1000, 300]}}", "objective.hausdorff.alpha",
+     "must not decrease"),
+    ("objective: {hausdorff: {alpha: [100, -3]}}", "objective.hausdorff.alpha",
+     "positive number"),
+    ("objective: {hausdorff: {form: unbiased}}", "objective.hausdorff.form",
+     "allowed: debiased, paper"),
+    ("optimizer: {algorithm: bfgs}", "optimizer.algorithm", "allowed: mma, slsqp, lbfgs"),
+    ("target: {map: [x1, x2, x3], weights: area}", "target.weights",
+     "allowed: volume, pushforward"),
 ])
 def test_each_bad_input_names_its_key(tmp_path, extra, key, words):
     text = BASE

@@ -38,7 +38,7 @@ def test_reachable_target_is_found(tmp_path):
     assert min(r["objective"] for r in rows) == pytest.approx(s["objective_final"], rel=1e-9)
 
 
-@pytest.mark.parametrize("algorithm", ["mma", "slsqp"])
+@pytest.mark.parametrize("algorithm", ["mma", "slsqp", "lbfgs"])
 def test_serial_and_two_ranks_give_the_same_history(algorithm, tmp_path):
     runs = []
     for ranks in (1, 2):
@@ -49,6 +49,22 @@ def test_serial_and_two_ranks_give_the_same_history(algorithm, tmp_path):
         assert done.returncode == 0, done.stderr
         runs.append([r["objective"] for r in history(out)])
     assert np.allclose(runs[1], runs[0], rtol=1e-6, atol=0)
+
+
+def test_an_alpha_schedule_sharpens_stage_by_stage(tmp_path):
+    """alpha [50, 200] on 8 iterations: the first stage takes at most its share (4), the
+    second the rest; history.csv records each iteration's alpha, and the run's final J is
+    the best of the last stage (values of J at different alphas are not comparable)."""
+    assert run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=8",
+                   "--set", "optimizer.algorithm=lbfgs",
+                   "--set", "objective.hausdorff.alpha=[50, 200]") == 0
+    rows = history(tmp_path)
+    alphas = [r["alpha"] for r in rows]
+    assert len(rows) == 8 and alphas[0] == 50.0 and alphas[-1] == 200.0
+    assert alphas == sorted(alphas) and 1 <= alphas.count(50.0) <= 4
+    s = read_json(tmp_path / "summary.json")
+    last = [r["objective"] for r in rows if r["alpha"] == 200.0]
+    assert s["objective_final"] == pytest.approx(min(last), rel=1e-9)
 
 
 def test_resume_after_sigkill_ends_identical(tmp_path):
