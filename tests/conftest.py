@@ -23,6 +23,16 @@ def shared_tmp(tmp_path: Path) -> Path:
     return Path(MPI.COMM_WORLD.bcast(str(tmp_path), root=0))
 
 
+def rank_share(cloud, comm=MPI.COMM_WORLD):
+    """This rank's contiguous share of a point cloud that every rank holds whole, with its
+    range (lo, hi) in the whole."""
+    from shapegrowth.hausdorff import PointCloud
+
+    n = len(cloud.weights)
+    lo, hi = n * comm.rank // comm.size, n * (comm.rank + 1) // comm.size
+    return PointCloud(cloud.points[lo:hi], cloud.weights[lo:hi]), lo, hi
+
+
 def run_cli(*args: str) -> int:
     """Run the CLI in this process (collectively under MPI); returns the exit status."""
     from shapegrowth.cli import main

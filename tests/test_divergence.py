@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from conftest import rank_share
 from shapegrowth.divergence import ShapeDivergence
 from shapegrowth.hausdorff import PointCloud, SmoothHausdorff
 from shapegrowth.verification import taylor_test
@@ -118,14 +119,9 @@ def test_distributed_clouds_give_the_serial_numbers():
                       target.weights.copy())
     S = ShapeDivergence(SmoothHausdorff(alpha=150.0))
     serial = S(body, target, MPI.COMM_SELF)
-    rank, size = comm.rank, comm.size
 
-    def share(c):
-        lo, hi = len(c.weights) * rank // size, len(c.weights) * (rank + 1) // size
-        return PointCloud(c.points[lo:hi], c.weights[lo:hi]), lo, hi
-
-    b_part, lo, hi = share(body)
-    t_part, _, _ = share(target)
+    b_part, lo, hi = rank_share(body)
+    t_part, _, _ = rank_share(target)
     dist = ShapeDivergence(SmoothHausdorff(alpha=150.0))(b_part, t_part, comm)
     assert dist.value == pytest.approx(serial.value, rel=1e-12)
     assert dist.target_self == pytest.approx(serial.target_self, rel=1e-13)

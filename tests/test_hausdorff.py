@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from conftest import rank_share
 from shapegrowth.hausdorff import PointCloud, SmoothHausdorff, exact_hausdorff
 from shapegrowth.verification import taylor_test
 
@@ -173,14 +174,9 @@ def test_distributed_clouds_give_the_serial_numbers():
     b = PointCloud(comm.bcast(b.points), comm.bcast(b.weights))
     H = SmoothHausdorff(alpha=40.0)
     serial = H(a, b, MPI.COMM_SELF)
-    rank, size = comm.rank, comm.size
 
-    def share(c):
-        lo, hi = len(c.weights) * rank // size, len(c.weights) * (rank + 1) // size
-        return PointCloud(c.points[lo:hi], c.weights[lo:hi]), lo, hi
-
-    a_part, lo, hi = share(a)
-    b_part, _, _ = share(b)
+    a_part, lo, hi = rank_share(a)
+    b_part, _, _ = rank_share(b)
     dist = H(a_part, b_part, comm)
     assert dist.value == pytest.approx(serial.value, rel=1e-13)
     assert np.allclose(dist.grad_points, serial.grad_points[lo:hi], rtol=1e-11, atol=1e-15)
