@@ -4,7 +4,7 @@ L-BFGS keeps a few vector pairs, so its own work is O(n) per iteration (1.6 ms a
 design DOFs, benchmarks/optimizer_cost.py); SLSQP's dense quasi-Newton matrix costs O(n^2)
 memory and O(n^3) time (1.2 s per iteration at 1000 design DOFs, 54 s at 3000).  Measured
 on the quarter-circle bend from no growth (scripts/reachable.py, 594 design DOFs, 100
-iterations): L-BFGS 0.26 % shape error, SLSQP 0.065 % with 30 % of the run inside NLopt,
+iterations): L-BFGS 0.26 % shape error, SLSQP 0.084 % with 27 % of the run inside NLopt,
 MMA 2.3 %.
 
 An alpha schedule (``objective.hausdorff.alpha: [a1, a2, ...]``) runs in stages: each stage
