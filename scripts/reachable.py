@@ -31,7 +31,9 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from reproduce import ROOT, finished, shapegrowth_command  # noqa: E402  (a sibling script)
+
 TOLERANCE = 3.0  # the optimiser's shape error may be this multiple of the known growth's
 FLOOR = 1e-3  # ... or this fraction of the target size, where the known growth is exact
 
@@ -66,11 +68,6 @@ def bound(known_error: float) -> float:
     return max(TOLERANCE * known_error, FLOOR)
 
 
-def _command(args: list[str], ranks: int) -> list[str]:
-    cmd = [str(Path(sys.executable).parent / "shapegrowth"), *args]
-    return ["mpirun", "-n", str(ranks), *cmd] if ranks > 1 else cmd
-
-
 def _sets(items) -> list[str]:
     return [a for s in items for a in ("--set", s)]
 
@@ -78,7 +75,7 @@ def _sets(items) -> list[str]:
 def _run(args: list[str], ranks: int, log: Path) -> None:
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     with open(log, "w") as fh:
-        done = subprocess.run(_command(args, ranks), stdout=fh, stderr=subprocess.STDOUT,
+        done = subprocess.run(shapegrowth_command(args, ranks), stdout=fh, stderr=subprocess.STDOUT,
                               cwd=ROOT, env=env)
     if done.returncode not in (0, 1):
         raise SystemExit(f"reachable: '{' '.join(args)}' exited {done.returncode} (see {log})")
@@ -97,24 +94,24 @@ def first_below(rows: list[dict], size: float, level: float) -> tuple[int, float
 
 
 def measure(case: Case, algorithm: str | None, out: Path, ranks: int, extra: list[str]) -> dict:
-    """Solve the known growth and run the optimiser (resumes nothing: each call runs)."""
+    """Solve the known growth and run the optimiser; a finished folder is read back."""
     base = ROOT / case.config
     known_dir = out / case.name / "known"
-    summary_path = known_dir / "summary.json"
-    if not summary_path.is_file():
+    known = finished(known_dir)
+    if known is None:
         known_dir.mkdir(parents=True, exist_ok=True)
         _run(["solve", str(base), "--out", str(known_dir), "-q",
               *_sets(case.sets + case.known + tuple(extra))], ranks, known_dir / "log.txt")
-    known = json.loads(summary_path.read_text())
-    tag = algorithm or "default"
-    run_dir = out / case.name / tag
-    if not (run_dir / "summary.json").is_file():
+        known = finished(known_dir)
+    run_dir = out / case.name / (algorithm or "default")
+    run = finished(run_dir)
+    if run is None:
         run_dir.mkdir(parents=True, exist_ok=True)
         sets = case.sets + tuple(extra) + ((f"optimizer.algorithm={algorithm}",) if algorithm
                                            else ())
         _run(["run", str(base), "--out", str(run_dir), "-q", *_sets(sets)], ranks,
              run_dir / "log.txt")
-    run = json.loads((run_dir / "summary.json").read_text())
+        run = finished(run_dir)
     with open(run_dir / "history.csv") as fh:
         rows = list(csv.DictReader(fh))
     size = run["target_size"]

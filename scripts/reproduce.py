@@ -79,20 +79,23 @@ def finished(folder: Path) -> dict | None:
     return json.loads(summary.read_text()) if summary.exists() else None
 
 
+def shapegrowth_command(args: list[str], ranks: int) -> list[str]:
+    """The console script with ``args``, under ``mpirun -n ranks`` beyond one rank."""
+    cmd = [str(ROOT / ".venv" / "bin" / "shapegrowth"), *args]
+    return ["mpirun", "-n", str(ranks), "--oversubscribe", *cmd] if ranks > 1 else cmd
+
+
 def run_scene(name: str, out: Path, ranks: int, overrides: list[str]) -> dict | None:
     folder = out / name
     done = finished(folder)
     if done is not None:
         return done
-    cmd = [str(ROOT / ".venv" / "bin" / "shapegrowth"), "run", str(ROOT / "configs" /
-                                                                 f"{name}.yaml"),
-           "--out", str(folder)]
+    args = ["run", str(ROOT / "configs" / f"{name}.yaml"), "--out", str(folder)]
     if (folder / "checkpoint.h5").exists():
-        cmd.append("--resume")
+        args.append("--resume")
     for item in overrides:
-        cmd += ["--set", item]
-    if ranks > 1:
-        cmd = ["mpirun", "-n", str(ranks), "--oversubscribe"] + cmd
+        args += ["--set", item]
+    cmd = shapegrowth_command(args, ranks)
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OPENBLAS_NUM_THREADS="1")
     print(f"reproduce: {name} ({' '.join(cmd[-6:])})", flush=True)

@@ -61,8 +61,8 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     _check_expressions(cfg, growth, errors)
     if cfg.target is not None:
         _check_target(cfg, errors)
-    alphas = cfg.objective.hausdorff.alphas
-    if not alphas or any(a is None or a <= 0 for a in alphas):
+    alphas = [a for a in cfg.objective.hausdorff.alphas if a is not None]  # None: reported
+    if not cfg.objective.hausdorff.alphas or any(a <= 0 for a in alphas):
         errors.append("objective.hausdorff.alpha: give a positive number or a list of them, "
                       "e.g. [100, 300, 1000]")
     elif any(b < a for a, b in zip(alphas, alphas[1:])):

@@ -17,6 +17,7 @@ rho_H itself.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,10 +56,7 @@ class ShapeDivergence:
 
     def with_alpha(self, alpha: float) -> "ShapeDivergence":
         """The same divergence at another sharpness (alpha continuation)."""
-        return ShapeDivergence(SmoothHausdorff(alpha=alpha, beta=self.rho.beta,
-                                               gamma=self.rho.gamma, phi=self.rho.phi,
-                                               truncate=self.rho.truncate,
-                                               cutoff=self.rho.cutoff), self.form)
+        return ShapeDivergence(dataclasses.replace(self.rho, alpha=alpha), self.form)
 
     def target_self(self, target: PointCloud, comm: MPI.Comm) -> float:
         key = (id(target), comm.py2f())

@@ -207,7 +207,7 @@ class Optimizer:
             if self.replay is not None and k < len(self.replay.f):
                 f, g, record = self._replayed(k, x)
             else:
-                f, g, record = self._evaluate(k, x)
+                f, g, record = self._evaluate(k, x, tic)
         except StateSolveError as err:
             self.failure = f"state solve failed at iteration {k}: {err}"
             raise nlopt.ForcedStop(self.failure) from None
@@ -262,8 +262,8 @@ class Optimizer:
         state.u.x.scatter_forward()
         state.adopt_equilibrium()
 
-    def _evaluate(self, k: int, x: np.ndarray) -> tuple[float, np.ndarray, Record]:
-        tic = time.perf_counter()
+    def _evaluate(self, k: int, x: np.ndarray, tic: float) -> tuple[float, np.ndarray, Record]:
+        """J and dJ at ``x`` for NLopt's callback that started at ``tic``."""
         local = self.vec.local(x)
         try:
             ev = self.rf.evaluate(local, gradient=True)

@@ -134,10 +134,6 @@ class ReducedFunctional:
         self.model.state.reset()
         self._key, self._last, self._report = None, None, None
 
-    @property
-    def alpha(self) -> float:
-        return self.objective.alpha
-
     def set_alpha(self, alpha: float) -> None:
         """One stage of an alpha schedule: J changes, the state does not (the cached
         equilibrium is kept, the cached J and dJ are dropped)."""
