@@ -5,7 +5,7 @@
                                           [--out results/reachable] [--report docs/REACHABLE.md]
 
 Each case is a config in configs/reachable/ whose target is the image of a known growth
-(a bend of curvature kappa, a uniform swelling, a plane shear).  For each case:
+(a bend of curvature kappa, a twist, a uniform swelling, a plane shear).  For each case:
 
 1. the known growth is solved on the same mesh (``shapegrowth solve``): its shape error
    e_known is what the discretisation allows;
@@ -49,6 +49,8 @@ class Case:
 
 BEND = "configs/reachable/bend.yaml"
 BEND_GROWTH = ("growth.eigenvalues.initial=['(1 + kappa*x3)**2', 1, 1]",)
+TARGET_START = ("growth.start=target", "growth.eigenvalues.initial=null",
+                "growth.angles.initial=null")  # the known growth is the target's own metric
 CASES = [
     Case("bend_1", BEND, ("parameters.kappa=1.0",), BEND_GROWTH, "beam bent to curvature 1"),
     Case("bend_quarter", BEND, ("parameters.kappa=1.5707963267948966",), BEND_GROWTH,
@@ -57,9 +59,10 @@ CASES = [
          "beam rolled into a half circle"),
     Case("swell", "configs/reachable/swell.yaml", (),
          ("growth.eigenvalues.initial=['s**2', 's**2', 's**2']",), "cube swollen by 1.1"),
+    Case("twist", "configs/reachable/twist.yaml", (), TARGET_START,
+         "strip twisted a quarter turn about a parallel axis (free 3D frame)"),
     Case("shear", "configs/reachable/shear.yaml", (),
-         ("growth.start=target", "growth.eigenvalues.initial=null", "growth.angles.initial=null"),
-         "square sheared by 0.3 (plane strain, free frame)"),
+         TARGET_START, "square sheared by 0.3 (plane strain, free frame)"),
 ]
 
 

@@ -135,9 +135,6 @@ def _check_target_start(cfg: Config, errors: list[str]) -> None:
                       "use start: given")
     if g.eigenvalues.incompressible:
         errors.append("growth.start: 'target' is not defined with eigenvalues.incompressible")
-    if g.frame == "free" and cfg.model.dim == 3:
-        errors.append("growth.start: 'target' with frame: free is implemented in 2D; in 3D "
-                      "give growth.angles.initial and growth.eigenvalues.initial")
     for key in ("eigenvalues", "angles"):
         if getattr(g, key).initial is not None:
             errors.append(f"growth.{key}.initial: start: target sets the initial growth; "

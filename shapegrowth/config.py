@@ -135,7 +135,7 @@ class GrowthConfig:
     start: str = option(
         "initial growth: 'given' (eigenvalues.initial, angles.initial) or 'target': the target "
         "map's metric grad Phi_d^T grad Phi_d, projected on the frame (free: its eigenvalues "
-        "and directions, 2D) and clipped to the bounds", "given", choices=("given", "target"))
+        "and directions) and clipped to the bounds", "given", choices=("given", "target"))
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,7 @@ import ufl
 
 from . import compat
 from .config import Config, ConfigError
+from .eigenframes import aligned_eigenframes, rodrigues_angles
 from .expressions import evaluate
 from .targets import target_metric
 
@@ -116,14 +117,16 @@ class Growth:
     def _start_from_target(self, cfg: Config, x: np.ndarray, problems: list[str]) -> None:
         """The target map's metric C_d = grad Phi_d^T grad Phi_d at the growth nodes: the
         growth that would make Phi_d itself stress-free, seen through this frame.  A fixed
-        frame keeps v_i . C_d v_i; the free 2D frame takes C_d's eigenvalues and directions.
+        frame keeps v_i . C_d v_i; the free frame takes C_d's eigenvalues and directions.
         Values outside the bounds are clipped (where Phi_d is singular, e.g. at corners)."""
         C = target_metric(cfg, x)
         if not np.isfinite(C).all():
             problems.append("growth.start: the target map's gradient is not finite "
                             "everywhere on the body")
             return
-        if self.frame == "free":  # 2D (checked)
+        if self.frame == "free" and self.dim == 3:
+            lams = self._free_frame_from_metric(cfg, x, C)
+        elif self.frame == "free":
             w, vecs = np.linalg.eigh(C)
             lams = [w[:, 1], w[:, 0]]
             a_lo, a_hi = cfg.growth.angles.bounds[0]
@@ -142,6 +145,36 @@ class Growth:
         if clipped:
             log.info("growth.start: target: %d of %d nodal eigenvalues clipped to [%g, %g]",
                      clipped, total, lo, hi)
+
+    def _free_frame_from_metric(self, cfg: Config, x: np.ndarray,
+                                C: np.ndarray) -> list[np.ndarray]:
+        """The free 3D frame: C_d's eigenvalues and Rodrigues angles, their frames aligned
+        from node to node (eigenframes.py), on rank 0 for the whole body, so that 1 and N
+        ranks choose the same frames.  Sets the angles; returns the eigenvalues."""
+        comm = self.mesh.comm
+        owned = self.space.dofmap.index_map.size_local
+        pieces = comm.gather((x.T[:owned], C[:owned]), root=0)
+        if comm.rank == 0:
+            xs = np.concatenate([p[0] for p in pieces])
+            Cs = np.concatenate([p[1] for p in pieces])
+            lams, frames = aligned_eigenframes(Cs, xs)
+            angles = np.stack(rodrigues_angles(frames), axis=1)
+            counts = np.cumsum([0] + [len(p[0]) for p in pieces])
+            parts = [(lams[a:b], angles[a:b]) for a, b in zip(counts[:-1], counts[1:])]
+        else:
+            parts = None
+        lam_own, ang_own = comm.scatter(parts, root=0)
+        for i, f in enumerate(self.angles):
+            a_lo, a_hi = cfg.growth.angles.bounds[i]
+            f.x.array[:owned] = np.clip(ang_own[:, i], a_lo, a_hi)
+            f.x.scatter_forward()
+        out = []
+        for i in range(3):
+            scratch = dolfinx.fem.Function(self.space)
+            scratch.x.array[:owned] = lam_own[:, i]
+            scratch.x.scatter_forward()
+            out.append(scratch.x.array.copy())
+        return out
 
     def _frame_values(self) -> list[np.ndarray]:
         """The frame's v_i at the growth nodes, each (n, dim)."""

@@ -328,8 +328,8 @@ class Optimizer:
             status = f"failed: {self.failure}"
         elif len(self.history) >= max_evals:
             status = "max_iterations"
-        elif code > 0:
-            status = "converged"
+        elif code > 0 or code == nlopt.ROUNDOFF_LIMITED:
+            status = "converged"  # by NLopt's own test, or no decrease left to round-off
         else:
             status = f"failed: NLopt returned {code}"
         best = self.best[1] if self.best is not None else x
@@ -374,9 +374,17 @@ class Optimizer:
             except (nlopt.ForcedStop, RuntimeError):
                 # a stop from the callback; L-BFGS reports ours as a generic "nlopt failure"
                 if not self._over_budget:
-                    if self.failure is None:
-                        raise
-                    return x, nlopt.FORCED_STOP
+                    if self.failure is not None:
+                        return x, nlopt.FORCED_STOP
+                    if len(self.history) == start:
+                        raise  # not a stop: NLopt refused to start
+                    # NLopt's own failure: L-BFGS's line search found no decrease (disk_cone,
+                    # iteration 80: J equal to 7 digits over its last 10 evaluations).  The
+                    # stage is over; its best design is kept.
+                    log.warning("NLopt stopped: its line search found no further decrease "
+                                "(round-off); the best design so far is kept")
+                    return (self.best[1] if self.best is not None else x), \
+                        nlopt.ROUNDOFF_LIMITED
                 self._over_budget = False
                 return (self.best[1] if self.best is not None else x), nlopt.MAXEVAL_REACHED
             at_box = limit > 0 and np.any(((x <= box_lo) & (box_lo > lo))

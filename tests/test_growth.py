@@ -147,3 +147,27 @@ def test_start_from_the_target_clips_to_the_bounds():
         assert 0.01 <= f.x.array.min() and f.x.array.max() <= 12.0
     assert np.isclose(model.growth.eigenvalues[0].x.array.max(), 12.0)
     assert np.isclose(model.growth.eigenvalues[1].x.array.min(), 0.01)
+
+
+@pytest.mark.mpi
+def test_start_from_the_target_holds_a_3d_metric_in_the_free_frame(shared_tmp):
+    """The free 3D frame from an affine map with a full grad Phi_d (C_d constant, off-
+    diagonal in every coordinate pair): three eigenvalues and three Rodrigues angles per
+    node give C_d back, and the body then takes Phi_d's shape stress-free (residual strain
+    at round-off), on one rank and two alike."""
+    from shapegrowth.eigenframes import rodrigues_matrix
+
+    F = np.array([[1.2, 0.3, 0.1], [0.0, 0.9, 0.2], [0.1, 0.0, 1.1]])
+    overrides = [f"mesh.cache_dir={shared_tmp}", "growth.frame=free", "growth.start=target",
+                 "target.map=[" + ", ".join(
+                     "'" + " + ".join(f"{F[i, j]}*x{j + 1}" for j in range(3)) + "'"
+                     for i in range(3)) + "]"]
+    model = ForwardModel.build(load(CONFIGS / "tiny" / "cube_uniform.yaml", overrides))
+    lams = np.stack([f.x.array for f in model.growth.eigenvalues], axis=1)
+    V = rodrigues_matrix(*(f.x.array for f in model.growth.angles))
+    Cg = np.einsum("nij,nj,nkj->nik", V, lams, V)
+    assert np.abs(Cg - F.T @ F).max() < 1e-10
+    assert np.allclose(np.sort(lams, axis=1), np.linalg.eigvalsh(F.T @ F), atol=1e-10)
+    assert np.ptp(lams, axis=0).max() < 1e-9  # one frame for the constant metric
+    assert model.state.solve().converged
+    assert model.residual_strain_norm() < 1e-8

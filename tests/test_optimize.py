@@ -221,6 +221,30 @@ def test_a_non_finite_objective_never_reaches_the_optimiser(tmp_path, monkeypatc
     assert s["iterations"] == 2 and np.isfinite(s["objective_final"])
 
 
+def test_nlopts_own_failure_ends_the_stage_with_its_best_design(tmp_path, monkeypatch):
+    """NLopt's L-BFGS reports a line search that finds no decrease as a generic
+    RuntimeError ("nlopt failure", disk_cone at iteration 80): the run keeps its best design,
+    ends converged and loses nothing.  Here the failure is raised at the 4th evaluation."""
+    from shapegrowth.optimize import Optimizer
+
+    real = Optimizer._objective
+    calls = {"n": 0}
+
+    def fails(self, x, grad):
+        calls["n"] += 1
+        if calls["n"] == 4:
+            raise RuntimeError("nlopt failure")
+        return real(self, x, grad)
+
+    monkeypatch.setattr(Optimizer, "_objective", fails)
+    code = run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=8")
+    s = read_json(tmp_path / "summary.json")
+    assert code == 0 and s["status"] == "converged" and s["iterations"] == 3
+    rows = history(tmp_path)
+    assert s["objective_final"] == pytest.approx(min(r["objective"] for r in rows), rel=1e-8)
+    assert (tmp_path / "fields.xdmf").is_file()
+
+
 def _adjoint_breaks_down_at(monkeypatch, call: int) -> None:
     """The adjoint solve fails, as an iterative solver that breaks down would, at its
     ``call``-th call (1-based) and works otherwise."""

@@ -1,0 +1,132 @@
+"""A field of symmetric 3 x 3 metrics as eigenvalue fields and Rodrigues angle fields.
+
+``growth.start: target`` with the free 3D frame needs C_d = sum_i lambda_i v_i (x) v_i at
+every growth node, with V = [v1 v2 v3] written as the Rodrigues angles (t1, t2, t3) of
+(5.3)-(5.4).  The decomposition is not unique: the eigenvectors may be permuted (with their
+eigenvalues) and their signs flipped, and where eigenvalues coincide any basis of the
+eigenspace will do.  The fields are interpolated between nodes, so the choice must vary
+continuously from node to node; a choice made node by node does not (a beam twisted about
+its axis: sorting the eigenvalues turns the frame by 90 degrees across the mid-plane, where
+lambda_1 and lambda_3 cross; the frame nearest the identity ties there).
+
+So the nodes are visited along a minimum spanning tree of their nearest-neighbour graph
+(built from the coordinates alone: serial and parallel runs choose the same frames), and
+each node takes, of its 24 proper signed permutations of eigenvectors, the one nearest its
+parent's frame; where the parent's frame already diagonalises the node's metric (equal
+eigenvalues) it is kept.  The root takes the signed permutation nearest the identity (a
+metric near diagonal keeps lambda_i along X_i).  A metric field whose frame cannot turn
+continuously (a defect line) keeps its jump on the fewest tree edges.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+NEIGHBOURS = 8  # nearest-neighbour graph of the nodes: enough to connect P1/P2 node sets
+
+# The 24 proper signed permutation matrices P (V -> V P keeps V a rotation when det P = 1).
+_SIGNED_PERMUTATIONS = np.array([
+    np.eye(3)[:, list(p)] * np.array(s)
+    for p in itertools.permutations(range(3)) for s in itertools.product((1, -1), repeat=3)
+    if np.linalg.det(np.eye(3)[:, list(p)] * np.array(s)) > 0])
+
+
+def rodrigues_matrix(t1: np.ndarray, t2: np.ndarray, t3: np.ndarray) -> np.ndarray:
+    """V (n, 3, 3) of (5.3): I - sin t3 K + (1 - cos t3) K K with k(t1, t2) of (5.4)."""
+    k = np.stack([np.cos(t1) * np.sin(t2), np.sin(t1) * np.sin(t2), np.cos(t2)], axis=1)
+    K = np.zeros((len(k), 3, 3))
+    K[:, 0, 1], K[:, 0, 2] = k[:, 2], -k[:, 1]
+    K[:, 1, 0], K[:, 1, 2] = -k[:, 2], k[:, 0]
+    K[:, 2, 0], K[:, 2, 1] = k[:, 1], -k[:, 0]
+    return (np.eye(3) - np.sin(t3)[:, None, None] * K
+            + (1 - np.cos(t3))[:, None, None] * K @ K)
+
+
+def rodrigues_angles(V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t1, t2, t3) with rodrigues_matrix(t1, t2, t3) = V, for rotations V (n, 3, 3);
+    t1 in [0, 2 pi), t2 in [0, pi], t3 in [0, pi] (the paper's default bounds)."""
+    # V is the rotation by t3 about k (the K of (5.3) is minus the usual cross-product matrix):
+    # V - V^T = 2 sin(t3) [k]_x and V + V^T - (tr V - 1) I = 2 (1 - cos t3) k k^T
+    cos_t3 = (np.trace(V, axis1=1, axis2=2) - 1) / 2
+    w = np.stack([V[:, 2, 1] - V[:, 1, 2], V[:, 0, 2] - V[:, 2, 0], V[:, 1, 0] - V[:, 0, 1]],
+                 axis=1)  # 2 sin(t3) k
+    norm = np.linalg.norm(w, axis=1)
+    t3 = np.arctan2(norm / 2, cos_t3)  # accurate near 0 and near pi alike
+    k = np.tile([0.0, 0.0, 1.0], (len(V), 1))  # no rotation: any axis
+    small = (norm > 1e-12) & (cos_t3 >= 0)
+    k[small] = w[small] / norm[small, None]
+    large = cos_t3 < 0  # beyond a quarter turn: the symmetric part is well conditioned
+    if large.any():
+        S = V[large] + V[large].transpose(0, 2, 1) - 2 * cos_t3[large, None, None] * np.eye(3)
+        col = np.argmax(np.einsum("nii->ni", S), axis=1)
+        axis = S[np.arange(len(col)), :, col]
+        axis /= np.linalg.norm(axis, axis=1)[:, None]
+        axis[np.einsum("ni,ni->n", axis, w[large]) < 0] *= -1
+        k[large] = axis
+    t2 = np.arccos(np.clip(k[:, 2], -1.0, 1.0))
+    t1 = np.mod(np.arctan2(k[:, 1], k[:, 0]), 2 * np.pi)
+    return t1, t2, t3
+
+
+def _spanning_order(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Breadth-first order of the nodes x (n, 3) along the minimum spanning tree of their
+    nearest-neighbour graph, and each node's parent (-1 for roots), from node 0 of the
+    lexicographic order (one root per connected piece)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
+    from scipy.spatial import cKDTree
+
+    n = len(x)
+    order = np.lexsort(x.T[::-1])  # numbering-free: by coordinates
+    xs = x[order]
+    k = min(NEIGHBOURS + 1, n)
+    dist, nbr = cKDTree(xs).query(xs, k=k)
+    rows = np.repeat(np.arange(n), k - 1)
+    # distinct positive weights (ties broken by the sorted position, not by the numbering)
+    weights = dist[:, 1:].ravel() * (1 + 1e-9 * rows / max(n, 1)) + 1e-300
+    graph = coo_matrix((weights, (rows, nbr[:, 1:].ravel())), shape=(n, n)).tocsr()
+    tree = minimum_spanning_tree(graph)
+    tree = tree + tree.T
+    parent = np.full(n, -1)
+    visited = np.zeros(n, dtype=bool)
+    sequence = []
+    for root in range(n):
+        if visited[root]:
+            continue
+        seq, pred = breadth_first_order(tree, root, directed=False, return_predecessors=True)
+        visited[seq] = True
+        sequence.append(seq)
+        parent[seq[1:]] = pred[seq[1:]]
+    seq = np.concatenate(sequence)
+    # back to the caller's numbering
+    return order[seq], np.where(parent[seq] >= 0, order[np.maximum(parent[seq], 0)], -1)
+
+
+def aligned_eigenframes(C: np.ndarray, x: np.ndarray,
+                        degenerate: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (n, 3) and rotations V (n, 3, 3) with C = V diag(lambda) V^T at each
+    node, V varying continuously from node to node where it can (module docstring).
+    ``degenerate``: relative off-diagonal size below which a parent's frame diagonalises
+    a node's metric and is kept."""
+    w, vecs = np.linalg.eigh(C)
+    w, vecs = w[:, ::-1], vecs[:, :, ::-1]  # largest first
+    vecs[np.linalg.det(vecs) < 0, :, 2] *= -1
+    lams = np.empty_like(w)
+    frames = np.empty_like(vecs)
+    seq, parent = _spanning_order(x)
+    scale = np.abs(C).max(axis=(1, 2)) + 1e-300
+    for node, up in zip(seq, parent):
+        candidates = vecs[node] @ _SIGNED_PERMUTATIONS  # (24, 3, 3)
+        reference = np.eye(3) if up < 0 else frames[up]
+        if up >= 0:
+            inherited = reference.T @ C[node] @ reference
+            off = inherited - np.diag(np.diag(inherited))
+            if np.abs(off).max() <= degenerate * scale[node]:
+                frames[node], lams[node] = reference, np.diag(inherited)
+                continue
+        best = int(np.argmax(np.einsum("ij,pij->p", reference, candidates)))
+        frames[node] = candidates[best]
+        lams[node] = w[node] @ np.abs(_SIGNED_PERMUTATIONS[best])
+    return lams, frames
