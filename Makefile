@@ -14,7 +14,7 @@ export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 export OMPI_MCA_rmaps_base_oversubscribe := 1
 MPIRUN := mpirun -n $(NP)
 
-.PHONY: reachable setup run bend test test-serial test-mpi notebooks bench reproduce reproduce-compare reference-docs clean help
+.PHONY: reachable setup run bend test lint test-serial test-mpi notebooks bench reproduce reproduce-compare reference-docs clean help
 
 help:
 	@echo "make run    - the default scene end to end (installs what is missing)"
@@ -43,7 +43,11 @@ bend: setup
 	$(BIN)/shapegrowth solve configs/beam_bend.yaml --probe 1,0,0
 
 test: setup
-	@$(MAKE) --no-print-directory test-serial test-mpi notebooks
+	@$(MAKE) --no-print-directory lint test-serial test-mpi notebooks
+
+# ruff on the package, its tests, scripts, benchmarks and notebook sources (pyproject.toml)
+lint:
+	$(BIN)/ruff check shapegrowth tests scripts benchmarks notebooks
 
 test-serial:
 	$(BIN)/python -m pytest -q tests

@@ -14,8 +14,8 @@ import time
 
 import numpy as np
 
-from shapegrowth import cellgrid, kernels
-from shapegrowth.hausdorff import PointCloud, SmoothHausdorff
+from shapegrowth.shape import cellgrid, kernels
+from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
 
 RNG = np.random.default_rng(2)
 

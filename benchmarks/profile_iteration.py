@@ -17,12 +17,12 @@ import pstats
 
 import numpy as np
 
-from shapegrowth import bench
-from shapegrowth.boundary import body_box
+from shapegrowth.commands import bench
 from shapegrowth.config import load
-from shapegrowth.forward import ForwardModel
-from shapegrowth.problem import ReducedFunctional
-from shapegrowth.verification import smooth_direction
+from shapegrowth.optim.problem import ReducedFunctional
+from shapegrowth.optim.verification import smooth_direction
+from shapegrowth.physics.boundary import body_box
+from shapegrowth.physics.model import ForwardModel
 
 
 def main() -> None:

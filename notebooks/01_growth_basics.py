@@ -34,10 +34,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from mpi4py import MPI
 
-from shapegrowth import compat
-from shapegrowth.config import load
-from shapegrowth.forward import ForwardModel
-from shapegrowth.plotting import draw, surface
+from shapegrowth import ForwardModel, build_model, draw, evaluate_at, load_config, surface
 
 CONFIGS = Path.cwd().parent / "configs" if Path.cwd().name == "notebooks" else Path("configs")
 rank0 = MPI.COMM_WORLD.rank == 0
@@ -45,7 +42,7 @@ rank0 = MPI.COMM_WORLD.rank == 0
 
 def solved(config: Path, *overrides: str) -> ForwardModel:
     """The forward model of a config, with its initial growth applied and in equilibrium."""
-    model = ForwardModel.build(load(config, list(overrides)))
+    model = build_model(load_config(config, list(overrides)))
     report = model.state.solve()
     assert report.converged, report.reason
     if rank0:
@@ -77,7 +74,7 @@ def show(surf, title: str, elev: float, azim: float, label: str | None = None) -
 
 # %%
 beam = solved(CONFIGS / "tiny" / "beam_bend.yaml", f"parameters.kappa={np.pi}")
-tip = compat.evaluate_at_points(beam.state.u, np.array([[1.0, 0.0, 0.0]]))[0] + [1, 0, 0]
+tip = evaluate_at(beam.state.u, np.array([[1.0, 0.0, 0.0]]))[0] + [1, 0, 0]
 if rank0:
     print("tip at", np.round(tip, 4), "(closed form: 0, 0, -0.6366)")
 

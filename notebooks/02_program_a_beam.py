@@ -30,22 +30,19 @@ import matplotlib.pyplot as plt
 import numpy as np
 from mpi4py import MPI
 
-from shapegrowth.config import load
-from shapegrowth.objective import Objective
-from shapegrowth.plotting import draw, surface
-from shapegrowth.runner import run_optimization
+from shapegrowth import Objective, draw, load_config, optimize, surface
 
 CONFIGS = Path.cwd().parent / "configs" if Path.cwd().name == "notebooks" else Path("configs")
 OUT = Path("results/notebook_beam_wave")
 rank0 = MPI.COMM_WORLD.rank == 0
 
-cfg = load(CONFIGS / "beam_wave.yaml", ["mesh.size=0.1", "mesh.layers=1",
+cfg = load_config(CONFIGS / "beam_wave.yaml", ["mesh.size=0.1", "mesh.layers=1",
                                         "optimizer.max_iterations=60"])
 if rank0:
     print(f"alpha = {cfg.objective.hausdorff.alpha}, optimiser {cfg.optimizer.algorithm}")
 
 # %%
-result = run_optimization(cfg, OUT)
+result = optimize(cfg, OUT)
 s = result.summary
 if rank0:
     print(f"{s['status']} after {s['iterations']} iterations in {s['wall_time_s']:.0f} s")

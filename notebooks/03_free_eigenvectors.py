@@ -37,10 +37,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from mpi4py import MPI
 
-from shapegrowth import compat
-from shapegrowth.config import load
-from shapegrowth.plotting import draw, surface
-from shapegrowth.runner import run_optimization
+from shapegrowth import draw, evaluate_at, load_config, optimize, surface
 
 CONFIGS = Path.cwd().parent / "configs" if Path.cwd().name == "notebooks" else Path("configs")
 rank0 = MPI.COMM_WORLD.rank == 0
@@ -48,8 +45,8 @@ common = ["mesh.size=0.5", "optimizer.max_iterations=80"]
 
 runs = {}
 for frame in ("fixed", "free"):
-    cfg = load(CONFIGS / f"square_circle_{frame}.yaml", common)
-    runs[frame] = run_optimization(cfg, Path(f"results/notebook_square_{frame}"))
+    cfg = load_config(CONFIGS / f"square_circle_{frame}.yaml", common)
+    runs[frame] = optimize(cfg, Path(f"results/notebook_square_{frame}"))
     s = runs[frame].summary
     if rank0:
         print(f"{frame:5s}: {s['status']} after {s['iterations']} iterations, "
@@ -70,8 +67,8 @@ for ax, frame in zip(axes, ("fixed", "free")):
     model = runs[frame].model
     growth = model.state.applied
     body = surface(model.state.u, growth.eigenvalues[0])
-    lam = [compat.evaluate_at_points(f, body.reference)[:, 0] for f in growth.eigenvalues]
-    angle = (compat.evaluate_at_points(growth.angles[0], body.reference)[:, 0]
+    lam = [evaluate_at(f, body.reference)[:, 0] for f in growth.eigenvalues]
+    angle = (evaluate_at(growth.angles[0], body.reference)[:, 0]
              if growth.angles else np.zeros(len(body.reference)))
     if rank0:
         artist = draw(ax, body, edgecolor="0.8")

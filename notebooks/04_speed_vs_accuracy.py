@@ -34,7 +34,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from mpi4py import MPI
 
-from shapegrowth.study import Sweep, pareto_front, run_study
+from shapegrowth import Sweep, pareto_front, run_study
 
 CONFIGS = Path.cwd().parent / "configs" if Path.cwd().name == "notebooks" else Path("configs")
 OUT = Path("results/notebook_study")

@@ -1,4 +1,4 @@
-"""Write docs/CONFIG.md, the config reference, from the schema in shapegrowth/config.py.
+"""Write docs/CONFIG.md, the config reference, from the schema in shapegrowth/config/sections.py.
 
     .venv/bin/python scripts/config_reference.py        (tests/test_config.py checks it)
 """

@@ -17,14 +17,13 @@ import argparse
 import sys
 from pathlib import Path
 
+import dolfinx.fem.petsc
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-import dolfinx.fem.petsc
-
 from shapegrowth.config import load
-from shapegrowth.forward import ForwardModel
+from shapegrowth.physics.model import ForwardModel
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -4,6 +4,97 @@ Find the growth tensor field C_g that deforms a soft Mooney-Rivlin body into a
 target shape (Ortigosa-Martinez et al., "Shape-programming in hyperelasticity
 through differential growth", 2024).  See README.md for the map of modules to
 the paper's equations.
+
+The public API is flat::
+
+    from shapegrowth import load_config, build_model, ReducedFunctional, taylor_test
+
+Its names are imported on first use, so ``import shapegrowth`` loads no FEniCSx module
+and changes nothing (the command line sets the BLAS threads before they load).
 """
 
-__version__ = "0.1.0"
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+from .version import __version__
+
+# name -> (module, attribute)
+_API = {
+    "load_config": ("shapegrowth.config", "load"),
+    "config_from_dict": ("shapegrowth.config", "from_dict"),
+    "Config": ("shapegrowth.config", "Config"),
+    "ConfigError": ("shapegrowth.config", "ConfigError"),
+    "ForwardModel": ("shapegrowth.physics.model", "ForwardModel"),
+    "build_model": ("shapegrowth.physics.model", "build_model"),
+    "Growth": ("shapegrowth.physics.growth", "Growth"),
+    "StateProblem": ("shapegrowth.physics.state", "StateProblem"),
+    "PointCloud": ("shapegrowth.shape.hausdorff", "PointCloud"),
+    "SmoothHausdorff": ("shapegrowth.shape.hausdorff", "SmoothHausdorff"),
+    "Objective": ("shapegrowth.optim.objective", "Objective"),
+    "ReducedFunctional": ("shapegrowth.optim.problem", "ReducedFunctional"),
+    "taylor_test": ("shapegrowth.optim.verification", "taylor_test"),
+    "optimize": ("shapegrowth.commands.run", "run_optimization"),
+    "solve": ("shapegrowth.commands.solve", "solve_forward"),
+    "Sweep": ("shapegrowth.commands.study", "Sweep"),
+    "run_study": ("shapegrowth.commands.study", "run_study"),
+    "pareto_front": ("shapegrowth.commands.study", "pareto_front"),
+    "evaluate_at": ("shapegrowth.compat", "evaluate_at_points"),
+    "surface": ("shapegrowth.io.plotting", "surface"),
+    "draw": ("shapegrowth.io.plotting", "draw"),
+}
+__all__ = [
+    "__version__",
+    "load_config",
+    "config_from_dict",
+    "Config",
+    "ConfigError",
+    "ForwardModel",
+    "build_model",
+    "Growth",
+    "StateProblem",
+    "PointCloud",
+    "SmoothHausdorff",
+    "Objective",
+    "ReducedFunctional",
+    "taylor_test",
+    "optimize",
+    "solve",
+    "Sweep",
+    "run_study",
+    "pareto_front",
+    "evaluate_at",
+    "surface",
+    "draw",
+]
+
+if TYPE_CHECKING:
+    from .commands.run import run_optimization as optimize
+    from .commands.solve import solve_forward as solve
+    from .commands.study import Sweep, pareto_front, run_study
+    from .compat import evaluate_at_points as evaluate_at
+    from .config import Config, ConfigError
+    from .config import from_dict as config_from_dict
+    from .config import load as load_config
+    from .io.plotting import draw, surface
+    from .optim.objective import Objective
+    from .optim.problem import ReducedFunctional
+    from .optim.verification import taylor_test
+    from .physics.growth import Growth
+    from .physics.model import ForwardModel, build_model
+    from .physics.state import StateProblem
+    from .shape.hausdorff import PointCloud, SmoothHausdorff
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _API:
+        raise AttributeError(f"module 'shapegrowth' has no attribute {name!r}")
+    module, attribute = _API[name]
+    value = getattr(importlib.import_module(module), attribute)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

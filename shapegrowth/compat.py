@@ -11,16 +11,15 @@ import functools
 from pathlib import Path
 
 import basix
-import numpy as np
-from mpi4py import MPI
-
 import dolfinx
 import dolfinx.cpp
 import dolfinx.fem
 import dolfinx.fem.petsc  # noqa: F401  (registers dolfinx.fem.petsc)
 import dolfinx.geometry
 import dolfinx.io
+import numpy as np
 import ufl
+from mpi4py import MPI
 
 DOLFINX_VERSION = dolfinx.__version__
 

@@ -26,7 +26,7 @@ def shared_tmp(tmp_path: Path) -> Path:
 def rank_share(cloud, comm=MPI.COMM_WORLD):
     """This rank's contiguous share of a point cloud that every rank holds whole, with its
     range (lo, hi) in the whole."""
-    from shapegrowth.hausdorff import PointCloud
+    from shapegrowth.shape.hausdorff import PointCloud
 
     n = len(cloud.weights)
     lo, hi = n * comm.rank // comm.size, n * (comm.rank + 1) // comm.size
@@ -35,7 +35,7 @@ def rank_share(cloud, comm=MPI.COMM_WORLD):
 
 def run_cli(*args: str) -> int:
     """Run the CLI in this process (collectively under MPI); returns the exit status."""
-    from shapegrowth.cli import main
+    from shapegrowth.commands.cli import main
 
     return main([str(a) for a in args])
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import CONFIGS, read_json, run_subprocess
 
 

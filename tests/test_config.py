@@ -6,8 +6,8 @@ import textwrap
 from pathlib import Path
 
 import pytest
-
 from conftest import CONFIGS, run_cli, run_subprocess
+
 from shapegrowth.config import ConfigError, from_dict, load
 
 BASE = """\
@@ -149,6 +149,7 @@ def test_cli_bad_input_prints_no_traceback(tmp_path):
 def test_the_config_reference_is_generated_from_the_schema():
     """docs/CONFIG.md cannot drift: regenerate it with scripts/config_reference.py."""
     from conftest import ROOT
+
     from shapegrowth.config import reference_text
 
     assert (ROOT / "docs" / "CONFIG.md").read_text() == reference_text()

@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import rank_share
 from mpi4py import MPI
 
-from conftest import rank_share
-from shapegrowth.divergence import ShapeDivergence
-from shapegrowth.hausdorff import PointCloud, SmoothHausdorff
-from shapegrowth.verification import taylor_test
+from shapegrowth.optim.verification import taylor_test
+from shapegrowth.shape.divergence import ShapeDivergence
+from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
 
 RNG = np.random.default_rng(7)
 

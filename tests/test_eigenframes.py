@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from shapegrowth.eigenframes import aligned_eigenframes, rodrigues_angles, rodrigues_matrix
+from shapegrowth.physics.eigenframes import aligned_eigenframes, rodrigues_angles, rodrigues_matrix
 
 
 def _rotations(n: int, seed: int = 0) -> np.ndarray:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from shapegrowth.expressions import COORDINATES, Expression, ExpressionError, evaluate
+from shapegrowth.config.expressions import COORDINATES, Expression, ExpressionError, evaluate
 
 NAMES = [*COORDINATES, "length"]
 

@@ -9,12 +9,12 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import CONFIGS, read_json, run_cli
+
 from shapegrowth import compat
 from shapegrowth.config import load
-from shapegrowth.forward import ForwardModel
-from shapegrowth.problem import ReducedFunctional
+from shapegrowth.optim.problem import ReducedFunctional
+from shapegrowth.physics.model import ForwardModel
 
 CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"
 BEND = CONFIGS / "tiny" / "beam_bend.yaml"

@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import math
 
+import dolfinx.fem
 import numpy as np
 import pytest
+import ufl
 from mpi4py import MPI
 
-import dolfinx.fem
-import ufl
-from shapegrowth.boundary import body_box
 from shapegrowth.config import BOUNDARIES, from_dict
-from shapegrowth.geometry import load_domain, mesh_path
+from shapegrowth.physics.boundary import body_box
+from shapegrowth.physics.geometry import load_domain, mesh_path
 
 R, T, L = 0.5, 0.1, 1.0
 CASES = {
@@ -100,7 +100,7 @@ def test_a_mesh_with_a_flat_cell_is_refused_with_one_clear_line(squash):
     import dolfinx.mesh
 
     from shapegrowth.config import ConfigError
-    from shapegrowth.geometry import check_cells
+    from shapegrowth.physics.geometry import check_cells
 
     x = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.3, 0.3, squash]], float)
     cells = np.array([[0, 1, 2, 3], [0, 1, 2, 4]], np.int64)
@@ -139,7 +139,7 @@ def test_box_graded_towards_its_clamp(shared_tmp):
 @pytest.mark.mpi
 def test_refined_mesh_is_nested_and_carries_p1_fields_exactly(shared_tmp):
     """mesh.refine: 8x the cells, the coarse vertices kept, a coarse P1 field exact on it."""
-    from shapegrowth.transfer import interpolate_between_meshes
+    from shapegrowth.physics.transfer import interpolate_between_meshes
 
     params = {"length": 1.0, "width": 0.2, "thickness": 0.1}
     coarse = config("box", params, 0.2, shared_tmp)

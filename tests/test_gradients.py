@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import CONFIGS, read_json, run_cli
 from mpi4py import MPI
 
-from conftest import CONFIGS, read_json, run_cli
-from shapegrowth.config import load
-from shapegrowth.filters import HelmholtzFilter
-from shapegrowth.geometry import load_domain
 from shapegrowth import compat
+from shapegrowth.config import load
+from shapegrowth.physics.filters import HelmholtzFilter
+from shapegrowth.physics.geometry import load_domain
 
 BEAM = CONFIGS / "tiny" / "beam_wave.yaml"
 SQUARE = CONFIGS / "tiny" / "square_disk.yaml"
@@ -103,8 +103,8 @@ def test_adjoint_with_the_state_factors_matches_a_fresh_factorisation(shared_tmp
     tangent gives the gradient of a fresh factorisation of the tangent at the solution, to
     the accuracy either has (the thin beam's tangent has cond ~ 1e7: both solves are good to
     about 1e-9 of the gradient)."""
-    from shapegrowth.forward import ForwardModel
-    from shapegrowth.problem import ReducedFunctional
+    from shapegrowth.optim.problem import ReducedFunctional
+    from shapegrowth.physics.model import ForwardModel
 
     # one model, so one partition of the mesh under MPI: the adjoint is toggled between
     cfg = load(BEAM, [f"mesh.cache_dir={shared_tmp}"])

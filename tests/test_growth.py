@@ -2,18 +2,18 @@
 
 from __future__ import annotations
 
-import numpy as np
-import pytest
-from mpi4py import MPI
-
 import dolfinx.fem
 import dolfinx.mesh
+import numpy as np
+import pytest
 import ufl
 from conftest import CONFIGS
-from shapegrowth import closed_forms as cf
+from mpi4py import MPI
+
 from shapegrowth.config import load
-from shapegrowth.forward import ForwardModel
-from shapegrowth.growth import Growth, frame_vectors, rodrigues
+from shapegrowth.physics import closed_forms as cf
+from shapegrowth.physics.growth import Growth, frame_vectors, rodrigues
+from shapegrowth.physics.model import ForwardModel
 
 RNG = np.random.default_rng(7)
 SQUARE = CONFIGS / "tiny" / "square_disk.yaml"
@@ -155,7 +155,7 @@ def test_start_from_the_target_holds_a_3d_metric_in_the_free_frame(shared_tmp):
     diagonal in every coordinate pair): three eigenvalues and three Rodrigues angles per
     node give C_d back, and the body then takes Phi_d's shape stress-free (residual strain
     at round-off), on one rank and two alike."""
-    from shapegrowth.eigenframes import rodrigues_matrix
+    from shapegrowth.physics.eigenframes import rodrigues_matrix
 
     F = np.array([[1.2, 0.3, 0.1], [0.0, 0.9, 0.2], [0.1, 0.0, 1.1]])
     overrides = [f"mesh.cache_dir={shared_tmp}", "growth.frame=free", "growth.start=target",

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import rank_share
 from mpi4py import MPI
 
-from conftest import rank_share
-from shapegrowth.hausdorff import PointCloud, SmoothHausdorff, exact_hausdorff
-from shapegrowth.verification import taylor_test
+from shapegrowth.optim.verification import taylor_test
+from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff, exact_hausdorff
 
 RNG = np.random.default_rng(11)
 
@@ -57,7 +57,7 @@ def test_taylor_in_points_and_weights(phi, truncate, dim):
 def test_vectorised_exp_matches_libm():
     """The kernels' exp (Taylor polynomial after range reduction, 2^n built in the bits)
     against numpy's on the clamped range [-100, 0] and at its ends."""
-    from shapegrowth.kernels import exp_array
+    from shapegrowth.shape.kernels import exp_array
 
     x = np.concatenate([-100.0 * RNG.random(100000), np.linspace(-100.0, 0.0, 20001),
                         [0.0, -0.0, -1e-300, -100.0]])
@@ -68,7 +68,7 @@ def test_vectorised_exp_matches_libm():
 def test_grid_nearest_distances_are_the_kd_tree_ones(cell):
     from scipy.spatial import cKDTree
 
-    from shapegrowth import cellgrid
+    from shapegrowth.shape import cellgrid
 
     sources = RNG.random((5000, 3)) * [1.0, 0.3, 0.05]
     queries = RNG.random((3000, 3)) * [1.6, 0.8, 0.6] - [0.3, 0.2, 0.3]

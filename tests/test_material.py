@@ -7,15 +7,15 @@ round-off; stress-free exactly when F^T F = C_g; frame invariance and isotropy.
 
 from __future__ import annotations
 
-import numpy as np
-import pytest
-from mpi4py import MPI
-
 import dolfinx.fem
 import dolfinx.mesh
+import numpy as np
+import pytest
 import ufl
-from shapegrowth import closed_forms as cf
-from shapegrowth.material import MooneyRivlin
+from mpi4py import MPI
+
+from shapegrowth.physics import closed_forms as cf
+from shapegrowth.physics.material import MooneyRivlin
 
 MAT = MooneyRivlin(mu1=0.7, mu2=0.3, lmbda=3.0)  # unequal mu's so a swapped term shows
 RNG = np.random.default_rng(20240323)

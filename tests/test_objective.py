@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import CONFIGS, read_json, run_cli
 from mpi4py import MPI
 
-from conftest import CONFIGS, read_json, run_cli
 from shapegrowth.config import load
-from shapegrowth.forward import ForwardModel
-from shapegrowth.geometry import mesh_path
-from shapegrowth.objective import Objective
+from shapegrowth.optim.objective import Objective
+from shapegrowth.physics.geometry import mesh_path
+from shapegrowth.physics.model import ForwardModel
 
 BEAM = CONFIGS / "tiny" / "beam_wave.yaml"
 CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"

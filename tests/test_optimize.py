@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import BIN, CONFIGS, ROOT, read_json, run_cli, run_subprocess
 
 ARC = CONFIGS / "tiny" / "beam_arc.yaml"
@@ -201,7 +200,7 @@ def test_broken_yaml_and_missing_file_through_the_cli(tmp_path, capsys):
 
 def test_a_non_finite_objective_never_reaches_the_optimiser(tmp_path, monkeypatch):
     """The guard: NaN at iteration 2 ends the run loudly, with the best design kept."""
-    from shapegrowth.problem import ReducedFunctional
+    from shapegrowth.optim.problem import ReducedFunctional
 
     real = ReducedFunctional.evaluate
     calls = {"n": 0}
@@ -225,7 +224,7 @@ def test_nlopts_own_failure_ends_the_stage_with_its_best_design(tmp_path, monkey
     """NLopt's L-BFGS reports a line search that finds no decrease as a generic
     RuntimeError ("nlopt failure", disk_cone at iteration 80): the run keeps its best design,
     ends converged and loses nothing.  Here the failure is raised at the 4th evaluation."""
-    from shapegrowth.optimize import Optimizer
+    from shapegrowth.optim.optimize import Optimizer
 
     real = Optimizer._objective
     calls = {"n": 0}
@@ -248,7 +247,7 @@ def test_nlopts_own_failure_ends_the_stage_with_its_best_design(tmp_path, monkey
 def _adjoint_breaks_down_at(monkeypatch, call: int) -> None:
     """The adjoint solve fails, as an iterative solver that breaks down would, at its
     ``call``-th call (1-based) and works otherwise."""
-    from shapegrowth.adjoint import AdjointProblem, AdjointSolveError
+    from shapegrowth.optim.adjoint import AdjointProblem, AdjointSolveError
 
     real = AdjointProblem.solve
     calls = {"n": 0}

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import pytest
-
 from conftest import CONFIGS, read_json, run_cli
 
 SCENES = {  # coarse element size for CI

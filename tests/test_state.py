@@ -18,12 +18,12 @@ import sys
 import numpy as np
 import pytest
 import ufl
+from conftest import CONFIGS, ROOT, read_json, run_cli, run_program, run_subprocess
 from scipy.optimize import fsolve
 
-from conftest import CONFIGS, ROOT, read_json, run_cli, run_program, run_subprocess
-from shapegrowth import closed_forms as cf
 from shapegrowth.config import from_dict
-from shapegrowth.forward import ForwardModel
+from shapegrowth.physics import closed_forms as cf
+from shapegrowth.physics.model import ForwardModel
 
 CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"
 TUBE = CONFIGS / "tiny" / "tube_axial.yaml"

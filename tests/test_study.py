@@ -6,10 +6,10 @@ import csv
 
 import numpy as np
 import pytest
-
 from conftest import CONFIGS, run_cli
+
+from shapegrowth.commands.study import Sweep, grid, pareto_front, reference_overrides
 from shapegrowth.config import ConfigError
-from shapegrowth.study import Sweep, grid, pareto_front, reference_overrides
 
 BEAM = CONFIGS / "tiny" / "beam_wave.yaml"
 

@@ -1,0 +1,243 @@
+"""Command line: ``shapegrowth COMMAND CONFIG [options]`` (also ``python -m shapegrowth``).
+
+Exit status: 0 success, 2 bad input (config, file, option), 1 a run that failed.
+Bad input prints one ``error:`` line per problem and no traceback; under
+``mpirun`` only rank 0 prints.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import re
+import sys
+from pathlib import Path
+
+from mpi4py import MPI
+
+from ..version import __version__
+
+
+def _one_blas_thread_per_rank() -> None:
+    """Under mpirun the ranks already use the cores: OpenBLAS threads would oversubscribe.
+    Measured on the 27.9k-DOF P2 bend: 1 rank x 2 threads 27 s, 2 ranks x 1 thread 21 s.
+    Must run before numpy/PETSc load the BLAS: the console entry point calls it first
+    (``import shapegrowth`` loads neither)."""
+    ranks = os.environ.get("OMPI_COMM_WORLD_SIZE") or os.environ.get("PMI_SIZE") or "1"
+    if int(ranks) > 1:
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+log = logging.getLogger("shapegrowth")
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="shapegrowth",
+        description="Shape programming by differential growth (growth-modulated Mooney-Rivlin).")
+    parser.add_argument("--version", action="version", version=f"shapegrowth {__version__}")
+    options = argparse.ArgumentParser(add_help=False)
+    options.add_argument("--set", dest="overrides", action="append", default=[],
+                        metavar="KEY=VALUE",
+                        help="override a config entry (dotted key, YAML value); repeatable")
+    options.add_argument("--out", type=Path, default=None,
+                        help="output folder (default: the config's output.dir)")
+    noise = options.add_mutually_exclusive_group()
+    noise.add_argument("--quiet", "-q", action="store_true", help="only warnings and errors")
+    noise.add_argument("--verbose", "-v", action="store_true", help="debug output")
+    common = argparse.ArgumentParser(add_help=False, parents=[options])
+    common.add_argument("config", help="YAML config file")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub.add_parser("validate", parents=[common], help="check a config, print every problem")
+    sub.add_parser("mesh", parents=[common], help="build (or reuse) the gmsh mesh")
+    solve = sub.add_parser("solve", parents=[common],
+                           help="forward solve with the config's initial growth")
+    solve.add_argument("--probe", action="append", default=[], metavar="X1,X2,X3",
+                       help="report the deformed position of this reference point; repeatable")
+    run = sub.add_parser("run", parents=[common], help="the optimisation, end to end")
+    run.add_argument("--resume", action="store_true",
+                     help="continue an interrupted run from its checkpoint.h5 (same ranks)")
+    check = sub.add_parser("gradcheck", parents=[common],
+                           help="Taylor test of the reduced gradient in a random direction")
+    check.add_argument("--seed", type=int, default=0, help="seed of the direction (default 0)")
+    check.add_argument("--eps", type=float, default=1e-2, help="first step (default 1e-2)")
+    check.add_argument("--steps", type=int, default=4, help="halvings of the step (default 4)")
+    study = sub.add_parser("study", parents=[common],
+                           help="a grid of settings: accuracy against cost (study.csv, study.png)")
+    study.add_argument("--sweep", action="append", default=[], metavar="KEY=V1,V2,...",
+                       help="a config key and its values; repeatable (the grid is the product)")
+    study.add_argument("--reference", action="append", default=[], metavar="KEY=VALUE",
+                       help="override of the reference discretisation the optima are judged "
+                            "on (default: the finest swept resolution); repeatable")
+    bench = sub.add_parser("bench", parents=[options],
+                           help="the performance benchmark (bench.json)")
+    bench.add_argument("config", nargs="?", default=None,
+                       help="YAML config (default: configs/beam_wave.yaml with a growth near "
+                            "the optimum)")
+    bench.add_argument("--sizes", type=_sizes, default=None, metavar="H1,H2,...",
+                       help="mesh sizes, one case each (default 0.05,0.025,0.0125)")
+    bench.add_argument("--ranks", type=int, default=2,
+                       help="ranks of the MPI run of the largest case (1: none; default 2)")
+    bench.add_argument("--steps", type=int, default=3,
+                       help="optimisation-like iterations measured per case (default 3)")
+    bench.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
+    return parser
+
+
+def _sizes(text: str) -> list[float]:
+    try:
+        sizes = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--sizes: numbers separated by commas, got {text!r}") from None
+    if not sizes or min(sizes) <= 0:
+        raise argparse.ArgumentTypeError(f"--sizes: positive mesh sizes, got {text!r}")
+    return sizes
+
+
+def _validate(cfg, args) -> int:
+    log.info("%s: valid", args.config)
+    return EXIT_OK
+
+
+def _mesh(cfg, args) -> int:
+    from ..physics.geometry import load_domain
+
+    domain = load_domain(cfg)
+    log.info("mesh: %s", domain.path)
+    return EXIT_OK
+
+
+def _solve(cfg, args) -> int:
+    from .solve import solve_forward
+
+    _, status = solve_forward(cfg, args.out or cfg.output_dir, args.probe)
+    return status
+
+
+def _gradcheck(cfg, args) -> int:
+    from .gradcheck import gradcheck
+
+    out = args.out or cfg.output_dir
+    report = gradcheck(cfg, out, args.seed, args.eps, args.steps)
+    rates = ", ".join(f"{r:.3f}" for r in report["rates"])
+    log.info("Taylor remainders fall at rates %s (2 for an exact gradient)", rates)
+    log.info("wrote %s", out / "gradcheck.json")
+    return EXIT_OK if report["min_rate"] > 1.9 else EXIT_FAILED
+
+
+def _run(cfg, args) -> int:
+    from ..optim.optimize import ResumeError
+    from .run import run_optimization
+
+    try:
+        status = run_optimization(cfg, args.out or cfg.output_dir, args.resume).exit_status
+    except ResumeError as err:
+        from .solve import InputError
+
+        raise InputError(str(err)) from None
+    return status
+
+
+def _study(cfg, args) -> int:
+    from ..config import ConfigError, load
+    from .study import Sweep, run_study
+
+    if not args.sweep:
+        raise ConfigError(["study: give at least one --sweep KEY=V1,V2,..."])
+    sweeps = [Sweep.parse(text) for text in args.sweep]
+    errors = []  # every value must make a valid config: all problems at once
+    for sweep in sweeps:
+        for value in sweep.values:
+            try:
+                load(args.config, args.overrides + [f"{sweep.key}={value}"])
+            except ConfigError as err:
+                errors += [f"--sweep {sweep.key}={value}: {e}" for e in err.problems]
+    if errors:
+        raise ConfigError(errors)
+    out = args.out or cfg.output_dir
+    rows = run_study(Path(args.config), args.overrides, sweeps, out, args.reference)
+    failed = [r for r in rows if str(r["status"]).startswith("failed")]
+    log.info("wrote %s and %s (%d points, %d failed)", out / "study.csv", out / "study.png",
+             len(rows), len(failed))
+    return EXIT_FAILED if failed else EXIT_OK
+
+
+def _bench(cfg, args) -> int:
+    from ..io import files as io
+    from . import bench
+
+    out = args.out or Path("results/bench")
+    if args.case:  # one case in this process (launched by the harness below)
+        io.write_json(out / "case.json", bench.measure_case(cfg, args.steps))
+        return EXIT_OK
+    result = bench.run_bench(Path(args.config), args.overrides, out,
+                             args.sizes or list(bench.DEFAULT_SIZES), args.ranks)
+    r = result["ratios"]
+    log.info("gradient/forward %.3f, rho_H/iteration %.3f, Newton/reference %.2f, "
+             "%.1f Newton iterations per step, scaling exponent %.2f",
+             r["gradient_over_forward"], r["hausdorff_over_iteration"],
+             r["newton_over_reference"], result["newton_iterations_per_step"],
+             result["scaling_exponent"])
+    if "speedup" in result["mpi"]:
+        mpi = result["mpi"]
+        log.info("mpirun -n %d speedup %.2f at %d DOFs (%.2f over one thread on one rank)",
+                 mpi["ranks"], mpi["speedup"], mpi["dofs"], mpi["speedup_over_one_thread"])
+    log.info("wrote %s", out / "bench.json")
+    return EXIT_OK
+
+
+COMMANDS = {"validate": _validate, "mesh": _mesh, "solve": _solve, "gradcheck": _gradcheck,
+            "run": _run, "study": _study, "bench": _bench}
+
+
+def _join_negative_values(argv: list[str]) -> list[str]:
+    """``--probe -0.5,0,0`` -> ``--probe=-0.5,0,0`` (argparse takes -0.5,... for an option)."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        if argv[i] == "--probe" and i + 1 < len(argv) and re.match(r"-[\d.]", argv[i + 1]):
+            out.append(f"--probe={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(argv[i])
+        i += 1
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = _parser().parse_args(_join_negative_values(argv))
+    from .. import logs
+    from ..config import ConfigError, load
+    from .solve import InputError
+
+    level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
+    logs.configure(level)
+    if args.command == "bench" and args.config is None:
+        from .bench import DEFAULT_CONFIG, DEFAULT_OVERRIDES
+
+        if not DEFAULT_CONFIG.exists():
+            print("error: bench: give a CONFIG (configs/beam_wave.yaml is not beside the package)",
+                  file=sys.stderr)
+            return EXIT_BAD_INPUT
+        args.config, args.overrides = str(DEFAULT_CONFIG), DEFAULT_OVERRIDES + args.overrides
+    try:
+        cfg = load(args.config, args.overrides)
+        return COMMANDS[args.command](cfg, args)
+    except (ConfigError, InputError) as err:
+        if MPI.COMM_WORLD.rank == 0:
+            for line in str(err).splitlines():
+                print(f"error: {line}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+def entry() -> None:
+    _one_blas_thread_per_rank()
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    entry()

@@ -1,0 +1,126 @@
+"""``shapegrowth run``: build the model, optimise, and write every output.
+
+Outputs in the run folder: summary.json, history.csv, history.png, shape.png (the
+deformed body coloured by lambda_hat_1, the target as dots), frame.png (a free 2D frame:
+its eigenvectors on the deformed body), fields.xdmf (+ .h5:
+displacement, Phi, the filtered growth fields lambda_hat_i/theta_hat_i, the
+eigenvectors v_i, residual_strain) and checkpoint.h5.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .. import compat
+from ..io import files as io
+from ..io.plotting import write_frame_png, write_shape_png
+from ..optim.optimize import Optimizer
+from ..optim.problem import ReducedFunctional, StateSolveError
+from ..physics.model import ForwardModel
+from ..physics.state import SolveReport
+from ..timing import Timer
+from .solve import base_summary
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class RunResult:
+    summary: dict[str, Any]
+    exit_status: int  # 0, or 1 for a failed run
+    model: ForwardModel  # left at the best design
+
+
+def _from_rest(model: ForwardModel, rf: ReducedFunctional):
+    """The objective at the current growth solved again from rest (load steps from C_g = I),
+    or None if that fails.  The optimiser reaches its equilibria by warm starts along its own
+    path; a thin body can have several, and the one reached from rest is what growing the
+    body with this growth does.  The optimiser's state is put back afterwards."""
+    state = model.state
+    kept = state.u.x.array.copy()
+    state.reset()
+    try:
+        report = state.solve()
+        value = rf.objective.evaluate(gradient=False)[0] if report.converged else None
+    finally:
+        state.u.x.array[:] = kept
+        state.adopt_equilibrium()
+    if value is None:
+        log.warning("the best growth could not be solved from rest: %s", report.reason)
+    return value
+
+
+def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
+    timer = Timer()
+    with timer("forward"):
+        model = ForwardModel.build(cfg)
+    rf = ReducedFunctional(model, timer)
+    optimizer = Optimizer(rf, out, resume=resume)
+    status, best = optimizer.run()
+    history = optimizer.history
+    # leave the state at the best design for the fields and the final numbers
+    final = None
+    failed = status.startswith("failed")
+    if failed:
+        rf.restart_from_rest()  # not a warm start from the state that failed
+    try:
+        final = rf.evaluate(optimizer.vec.local(best), gradient=False)
+    except StateSolveError as err:
+        log.warning("could not re-solve the best design: %s", err)
+    with timer("io"):
+        io.write_history(out, history)
+        phi = io.deformation_field(model.state.u)
+        io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
+                        extra=[phi, model.residual_strain_field()])
+        applied = model.state.applied
+        write_shape_png(out / "shape.png", model.state.u, applied.eigenvalues[0],
+                        rf.objective.target.points, "lambda_hat_1")
+        if applied.frame == "free" and applied.dim == 2:
+            write_frame_png(out / "frame.png", model.state.u, applied.eigenvalues,
+                            applied.angles[0], rf.objective.target.points)
+    # a failed run's final state was already solved from rest
+    from_rest = (final.value if failed else _from_rest(model, rf)) if final else None
+    report = final.report if final else SolveReport(converged=False, reason="no state")
+    summary = base_summary(cfg, model, report, status, timer)
+    first = history[0] if history else None
+    # with rho_H at the best design; without a state there, from the clouds as they are
+    exact = final.value.hausdorff if final else rf.objective.exact_hausdorff()
+    summary.update({
+        "iterations": len(history),
+        "objective_initial": first.objective if first else None,
+        "objective_final": final.value.total if final else None,
+        "rho_H_initial": first.rho_H if first else None,
+        "rho_H_final": final.value.rho_H if final else None,
+        "hausdorff_initial": first.hausdorff if first else None,
+        "hausdorff_final": exact,
+        "target_size": rf.objective.target_size,
+        "newton_iterations_total": sum(r.newton_iterations for r in history),
+        "dofs": {"state": compat.global_size(model.state.V), "design": optimizer.vec.size},
+        "evaluations": rf.evaluations,
+        "residual_strain": model.residual_strain_norm(),
+        # the best growth applied to the body at rest: the shape a body grown so would take
+        "rho_H_from_rest": from_rest.rho_H if from_rest else None,
+        "hausdorff_from_rest": from_rest.hausdorff if from_rest else None,
+        "resumed": resume,
+    })
+    io.write_json(out / "summary.json", summary)
+    rel = exact / rf.objective.target_size
+    if from_rest and abs(from_rest.hausdorff - exact) > max(0.05 * exact,
+                                                            1e-3 * rf.objective.target_size):
+        log.warning("the best growth applied from rest reaches another equilibrium: Hausdorff "
+                    "%.4g (%.3g %%) against the optimiser's %.4g: the shape depends on the "
+                    "growth path (hausdorff_from_rest in summary.json)", from_rest.hausdorff,
+                    100 * from_rest.hausdorff / rf.objective.target_size, exact)
+    log.info("%s after %d iterations: rho_H %.4g -> %.4g, Hausdorff distance %.4g "
+             "(%.3g %% of the target size)", status, len(history),
+             summary["rho_H_initial"] or float("nan"), summary["rho_H_final"] or float("nan"),
+             exact, 100 * rel)
+    log.info("results in %s: summary.json, history.csv, history.png, shape.png, fields.xdmf",
+             out)
+    log.info("view: paraview %s, Filters > Warp By Vector (displacement), colour by lambda_hat_1",
+             out / "fields.xdmf")
+    return RunResult(summary, 1 if failed else 0, model)
+

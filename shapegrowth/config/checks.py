@@ -1,0 +1,181 @@
+"""Cross-field rules of the config, and the defaults that depend on other keys
+(the dimension, the geometry kind).  Each problem is appended to ``errors`` as one
+line naming the key; nothing is raised here."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from .expressions import CONSTANTS, COORDINATES, FUNCTIONS, Expression, ExpressionError
+from .sections import (
+    BOUNDARIES,
+    GEOMETRY_PARAMS,
+    PAPER_ANGLE_BOUNDS_2D,
+    PAPER_ANGLE_BOUNDS_3D,
+    Config,
+    GrowthConfig,
+)
+
+
+def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
+    """Cross-field rules and dimension-dependent defaults."""
+    geo, dim = cfg.geometry, cfg.model.dim
+    kind = geo.kind
+    for name in ("length", "width", "thickness", "radius", "inner_radius", "height", "side"):
+        given = getattr(geo, name) is not None
+        if name in GEOMETRY_PARAMS[kind] and not given:
+            errors.append(f"geometry.{name}: required for kind '{kind}'")
+        elif name not in GEOMETRY_PARAMS[kind] and given:
+            errors.append(f"geometry.{name}: not used by kind '{kind}' "
+                          f"(it takes {', '.join(GEOMETRY_PARAMS[kind])})")
+    if kind == "annulus" and geo.radius and geo.inner_radius and geo.inner_radius >= geo.radius:
+        errors.append("geometry.inner_radius: must be smaller than geometry.radius")
+    if kind in ("tube", "cylinder_shell") and geo.radius and geo.thickness \
+            and geo.thickness >= geo.radius:
+        errors.append("geometry.thickness: the wall must be thinner than geometry.radius")
+    if (kind == "rectangle") != (dim == 2):
+        errors.append(f"model.dim: {dim} does not fit geometry.kind '{kind}' "
+                      "(rectangle is the 2D plane-strain body; every other kind is 3D)")
+
+    bc = cfg.boundary.clamp
+    allowed = (*BOUNDARIES[kind], "rigid")
+    if bc not in allowed:
+        errors.append(f"boundary.clamp: '{bc}' is not a boundary of a {kind} "
+                      f"(allowed: {', '.join(allowed)})")
+
+    if cfg.mesh.clamp_size is not None:
+        if kind != "box" or bc != "x1_min":
+            errors.append("mesh.clamp_size: only a box clamped at x1_min is graded towards its "
+                          "clamp; remove the key")
+        elif cfg.mesh.clamp_size >= cfg.mesh.size:
+            errors.append("mesh.clamp_size: must be smaller than mesh.size (or left out)")
+
+    loads = cfg.loads
+    body_force = loads.body_force if loads.body_force is not None else (0.0,) * dim
+    if len(body_force) != dim:
+        errors.append(f"loads.body_force: give {dim} components")
+    for name, vec in loads.traction.items():
+        if name not in BOUNDARIES[kind]:
+            errors.append(f"loads.traction.{name}: not a boundary of a {kind} "
+                          f"(allowed: {', '.join(BOUNDARIES[kind])})")
+        if vec is not None and len(vec) != dim:
+            errors.append(f"loads.traction.{name}: give {dim} components")
+
+    growth = _check_growth(cfg, errors)
+    _check_names(cfg, errors)
+    _check_expressions(cfg, growth, errors)
+    if cfg.target is not None:
+        _check_target(cfg, errors)
+    alphas = [a for a in cfg.objective.hausdorff.alphas if a is not None]  # None: reported
+    if not cfg.objective.hausdorff.alphas or any(a <= 0 for a in alphas):
+        errors.append("objective.hausdorff.alpha: give a positive number or a list of them, "
+                      "e.g. [100, 300, 1000]")
+    elif any(b < a for a, b in zip(alphas, alphas[1:])):
+        errors.append("objective.hausdorff.alpha: a schedule must not decrease (it starts "
+                      "smooth and ends sharp), e.g. [100, 300, 1000]")
+    if cfg.solver.continuation.min_step > cfg.solver.continuation.initial_step:
+        errors.append("solver.continuation.min_step: must not exceed initial_step")
+    for key in cfg.solver.petsc_options:
+        if not key.startswith(("state_", "adjoint_", "filter_")):
+            errors.append(f"solver.petsc_options.{key}: keys start with state_, adjoint_ "
+                          "or filter_")
+
+    return dataclasses.replace(cfg, growth=growth,
+                               loads=dataclasses.replace(loads, body_force=tuple(body_force)))
+
+
+def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:
+    g, dim = cfg.growth, cfg.model.dim
+    eig = g.eigenvalues
+    n_eig = dim - 1 if eig.incompressible else dim
+    initial = eig.initial if eig.initial is not None else (1.0,) * n_eig
+    if len(initial) != n_eig:
+        extra = f" (incompressible: lambda_{dim} is derived)" if eig.incompressible else ""
+        errors.append(f"growth.eigenvalues.initial: give {n_eig} values{extra}, got {len(initial)}")
+    lo, hi = eig.bounds
+    bounds_ok = 0 < lo < hi
+    if not bounds_ok:
+        errors.append(f"growth.eigenvalues.bounds: need 0 < lower < upper, got [{lo}, {hi}]")
+    for i, value in enumerate(initial):
+        if bounds_ok and isinstance(value, float) and not lo <= value <= hi:
+            errors.append(f"growth.eigenvalues.initial[{i}]: {value} is outside the bounds "
+                          f"[{lo}, {hi}]")
+    design = eig.design if eig.design is not None else tuple(range(1, n_eig + 1))
+    bad = [d for d in design if not 1 <= d <= n_eig]
+    if bad or len(set(design)) != len(design):
+        errors.append(f"growth.eigenvalues.design: a subset of 1..{n_eig} without repeats, "
+                      f"got {list(design)}")
+
+    if g.frame == "tube" and dim == 2:
+        errors.append("growth.frame: 'tube' is a 3D frame (2D allows cartesian, cylindrical, free)")
+    n_ang = 3 if dim == 3 else 1
+    ang = g.angles
+    a_init = ang.initial if ang.initial is not None else (0.0,) * n_ang
+    a_bounds = ang.bounds if ang.bounds is not None else (
+        PAPER_ANGLE_BOUNDS_3D if dim == 3 else PAPER_ANGLE_BOUNDS_2D)
+    if len(a_init) != n_ang:
+        errors.append(f"growth.angles.initial: give {n_ang} angle(s) in {dim}D, got {len(a_init)}")
+    if len(a_bounds) != n_ang:
+        errors.append(f"growth.angles.bounds: give {n_ang} [lower, upper] pair(s) in {dim}D")
+    for i, (a_lo, a_hi) in enumerate(a_bounds):
+        if not a_lo < a_hi:
+            errors.append(f"growth.angles.bounds[{i}]: lower must be below upper, "
+                          f"got [{a_lo}, {a_hi}]")
+        elif i < len(a_init) and isinstance(a_init[i], float) and not a_lo <= a_init[i] <= a_hi:
+            errors.append(f"growth.angles.initial[{i}]: {a_init[i]} is outside its bounds "
+                          f"[{a_lo}, {a_hi}]")
+    if g.start == "target":
+        _check_target_start(cfg, errors)
+    if g.frame != "free" and ang.initial is not None and any(
+            not (isinstance(a, float) and a == 0.0) for a in ang.initial):
+        errors.append("growth.angles.initial: angles act only with frame: free")
+    return dataclasses.replace(
+        g, eigenvalues=dataclasses.replace(eig, initial=tuple(initial), design=tuple(design)),
+        angles=dataclasses.replace(ang, initial=tuple(a_init), bounds=tuple(a_bounds)))
+
+
+def _check_target_start(cfg: Config, errors: list[str]) -> None:
+    g = cfg.growth
+    if cfg.target is None or cfg.target.map is None:
+        errors.append("growth.start: 'target' needs target.map (a target mesh has no map); "
+                      "use start: given")
+    if g.eigenvalues.incompressible:
+        errors.append("growth.start: 'target' is not defined with eigenvalues.incompressible")
+    for key in ("eigenvalues", "angles"):
+        if getattr(g, key).initial is not None:
+            errors.append(f"growth.{key}.initial: start: target sets the initial growth; "
+                          "remove one of the two")
+
+
+def _check_names(cfg: Config, errors: list[str]) -> None:
+    reserved = set(COORDINATES) | set(CONSTANTS) | set(FUNCTIONS)
+    for name in cfg.parameters:
+        if name in reserved or not name.isidentifier():
+            errors.append(f"parameters.{name}: not usable as a name (reserved or not an "
+                          "identifier)")
+
+
+def _check_expressions(cfg: Config, growth: GrowthConfig, errors: list[str]) -> None:
+    names = [*COORDINATES, *cfg.expression_params]
+    groups = [("growth.eigenvalues.initial", growth.eigenvalues.initial),
+              ("growth.angles.initial", growth.angles.initial)]
+    if cfg.target is not None and cfg.target.map is not None:
+        groups.append(("target.map", cfg.target.map))
+    for key, values in groups:
+        for i, value in enumerate(values or ()):
+            if isinstance(value, str):
+                try:
+                    Expression(value, names)
+                except ExpressionError as err:
+                    errors.append(f"{key}[{i}]: {err}")
+
+
+def _check_target(cfg: Config, errors: list[str]) -> None:
+    target = cfg.target
+    if (target.map is None) == (target.mesh is None):
+        errors.append("target: give exactly one of 'map' (expressions) or 'mesh' (a file)")
+    if target.map is not None and len(target.map) != cfg.model.dim:
+        errors.append(f"target.map: give {cfg.model.dim} components")
+    if target.mesh is not None and not Path(target.mesh).is_file():
+        errors.append(f"target.mesh: file '{target.mesh}' not found")

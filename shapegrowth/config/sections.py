@@ -1,0 +1,281 @@
+"""The config's sections: typed, frozen dataclasses whose fields carry their help,
+default and range (schema.py), and :class:`ConfigError`.  Reading and validating a
+config is loading.py's."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .schema import option
+
+GEOMETRY_PARAMS: dict[str, tuple[str, ...]] = {
+    "box": ("length", "width", "thickness"),
+    "tube": ("length", "radius", "thickness"),
+    "annulus": ("radius", "inner_radius", "thickness"),
+    "cylinder_shell": ("radius", "height", "thickness"),
+    "rectangle": ("side",),
+    "cube": ("side",),
+}
+BOUNDARIES: dict[str, tuple[str, ...]] = {
+    "box": ("x1_min", "x1_max", "x2_min", "x2_max", "x3_min", "x3_max"),
+    "tube": ("x1_min", "x1_max", "inner", "outer"),
+    "annulus": ("inner_rim", "outer_rim", "x3_min", "x3_max"),
+    "cylinder_shell": ("bottom_rim", "top_rim", "inner", "outer"),
+    "rectangle": ("x1_min", "x1_max", "x2_min", "x2_max"),
+    "cube": ("x1_min", "x1_max", "x2_min", "x2_max", "x3_min", "x3_max"),
+}
+LAYERED = ("box", "tube", "annulus", "cylinder_shell")  # bodies with a thin direction
+FRAMES = ("cartesian", "cylindrical", "tube", "free")
+PAPER_ANGLE_BOUNDS_3D = ((0.0, 2 * math.pi), (0.0, math.pi), (0.0, 2 * math.pi))
+PAPER_ANGLE_BOUNDS_2D = ((0.0, 2 * math.pi),)
+
+Scalar = float | str  # a number or an expression
+
+
+class ConfigError(ValueError):
+    """One or more problems in a config; ``problems`` holds one line each."""
+
+    def __init__(self, problems: list[str]):
+        self.problems = list(problems)
+        super().__init__("\n".join(self.problems))
+
+
+@dataclass(frozen=True)
+class GeometryConfig:
+    kind: str = option("shape of the reference body", choices=tuple(GEOMETRY_PARAMS))
+    length: float | None = option("box, tube: extent along X1, from X1 = 0", None, gt=0)
+    width: float | None = option("box: extent along X2, centred on X2 = 0", None, gt=0)
+    thickness: float | None = option(
+        "box: extent along X3 centred on X3 = 0; tube, annulus, cylinder_shell: wall", None, gt=0)
+    radius: float | None = option("tube, annulus, cylinder_shell: outer radius", None, gt=0)
+    inner_radius: float | None = option("annulus: inner radius", None, gt=0)
+    height: float | None = option("cylinder_shell: extent along X3, from X3 = 0", None, gt=0)
+    side: float | None = option("rectangle, cube: side length, centred at the origin", None, gt=0)
+
+
+@dataclass(frozen=True)
+class MeshConfig:
+    size: float = option("target element size", gt=0)
+    layers: int = option("elements through the wall or thickness (layered bodies)", 2, ge=1)
+    clamp_size: float | None = option(
+        "box clamped at x1_min: element size at the clamp, growing to `size` away from it "
+        "(resolves the sharp bend a clamped end needs); default: uniform `size`", None, gt=0)
+    grading: float = option("growth of the element size per unit distance from the clamp "
+                            "(with clamp_size)", 0.5, gt=0)
+    refine: int = option("uniform refinements of the built mesh (each cell split in 4 in 2D, "
+                         "8 in 3D; nested, so fields of the coarse mesh carry over exactly)",
+                         0, ge=0, le=3)
+    cache_dir: str = option("folder of the mesh cache", "meshes")
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    dim: int = option("3, or 2 for plane strain in the X1-X2 plane", 3, choices=(2, 3))
+    degree: int = option("polynomial degree of the displacement", 2, choices=(1, 2))
+    quadrature_degree: int | None = option(
+        "quadrature degree of the energy (default 2*degree; UFL's own estimate is far higher)",
+        None, ge=1, le=12)
+
+
+@dataclass(frozen=True)
+class MaterialConfig:
+    mu1: float = option("Mooney-Rivlin mu1 (5.1)", 0.5, ge=0)
+    mu2: float = option("Mooney-Rivlin mu2 (5.1)", 0.5, ge=0)
+    lmbda: float = option("volumetric modulus lambda (5.1)", 3.0, ge=0)
+
+
+@dataclass(frozen=True)
+class BoundaryConfig:
+    clamp: str = option("named boundary clamped in all directions, or 'rigid' "
+                        "(remove rigid motions only)")
+
+
+@dataclass(frozen=True)
+class LoadsConfig:
+    body_force: tuple[float, ...] | None = option("body force f per reference volume (2.7)", None)
+    traction: dict[str, tuple[float, ...]] = option(
+        "reference traction s0 (2.6) per named boundary, e.g. {x1_max: [0, 0, -1e-3]}", {})
+
+
+@dataclass(frozen=True)
+class EigenvaluesConfig:
+    initial: tuple[Scalar, ...] | None = option(
+        "initial lambda_i, each a number or an expression (default 1)", None)
+    bounds: tuple[float, float] = option("lower and upper bound of every lambda_i", (0.01, 12.0))
+    design: tuple[int, ...] | None = option(
+        "which eigenvalues the optimiser may change (default all)", None)
+    incompressible: bool = option("lambda_N = 1/(product of the others): give N-1 values", False)
+
+
+@dataclass(frozen=True)
+class AnglesConfig:
+    initial: tuple[Scalar, ...] | None = option(
+        "initial Rodrigues angles theta_i (frame: free), numbers or expressions (default 0)", None)
+    bounds: tuple[tuple[float, float], ...] | None = option(
+        "bounds per angle (default [0, 2pi], [0, pi], [0, 2pi]; 2D: [0, 2pi])", None)
+
+
+@dataclass(frozen=True)
+class GrowthConfig:
+    frame: str = option("eigenvector frame of C_g", "cartesian", choices=FRAMES)
+    eigenvalues: EigenvaluesConfig = option("eigenvalue fields lambda_i", EigenvaluesConfig())
+    angles: AnglesConfig = option("angle fields theta_i (frame: free)", AnglesConfig())
+    filter_length: float = option("Helmholtz filter length l (5.7); 0: no filter", 0.0, ge=0)
+    degree: int = option("polynomial degree of the growth fields", 1, choices=(1, 2))
+    start: str = option(
+        "initial growth: 'given' (eigenvalues.initial, angles.initial) or 'target': the target "
+        "map's metric grad Phi_d^T grad Phi_d, projected on the frame (free: its eigenvalues "
+        "and directions) and clipped to the bounds", "given", choices=("given", "target"))
+
+
+@dataclass(frozen=True)
+class TargetConfig:
+    map: tuple[Scalar, ...] | None = option("target map Phi_d(X), one expression per component",
+                                            None)
+    mesh: str | None = option("target body as a mesh file (gmsh .msh)", None)
+    weights: str = option(
+        "map targets: the measure of the target cloud: 'volume' w_q |det grad Phi_d| (the "
+        "target's own volume; the push-forward where the map has no volume) or 'pushforward' "
+        "w_q (the reference measure carried by the map)", "volume",
+        choices=("volume", "pushforward"))
+
+
+@dataclass(frozen=True)
+class HausdorffConfig:
+    phi: str = option("phi of (2.9): exp(-t) or rational 1/(1+t)", "exp",
+                      choices=("exp", "rational"))
+    alpha: float | tuple[float, ...] = option(
+        "alpha of (2.9) (sharpness; scales like 1/length), or a rising schedule such as "
+        "[100, 300, 1000]: each value in turn, the next one when the optimiser stalls or the "
+        "stage's share of optimizer.max_iterations is spent", 100.0, gt=0)
+    form: str = option(
+        "the shape term minimised: 'debiased' rho_H(B,T) - (rho_H(B,B) + rho_H(T,T))/2, zero "
+        "when body and target coincide; 'paper' rho_H(B,T) of (2.9), biased by ~log(alpha)/alpha",
+        "debiased", choices=("debiased", "paper"))
+    beta: float = option("beta of (2.9)", 2.0, gt=0)
+    gamma: float = option("gamma of (2.9)", 2.0, gt=0)
+    quadrature_degree: int = option("quadrature degree of the point clouds of both bodies", 2,
+                                    ge=1, le=8)
+    cutoff: float = option("pairs whose term is below exp(-cutoff) of the nearest are skipped "
+                           "(where that prunes)", 20.0, ge=5)
+
+    @property
+    def alphas(self) -> tuple[float, ...]:
+        """The alpha schedule (one value without continuation)."""
+        return tuple(self.alpha) if isinstance(self.alpha, tuple) else (float(self.alpha),)
+
+
+@dataclass(frozen=True)
+class ComplexityConfig:
+    kind: str = option("complexity functional (Sect. 2.4)", "none",
+                       choices=("none", "C1", "C2", "C1bar", "C2bar"))
+    weight: float = option("alpha_1 of the complexity functional", 0.0, ge=0)
+    gradient_weight: float = option("alpha_2: weight of the gradient penalty on C_g", 0.0, ge=0)
+
+
+@dataclass(frozen=True)
+class ObjectiveConfig:
+    hausdorff: HausdorffConfig = option("smooth Hausdorff distance rho_H (2.9)", HausdorffConfig())
+    complexity: ComplexityConfig = option("complexity terms", ComplexityConfig())
+
+
+@dataclass(frozen=True)
+class OptimizerConfig:
+    algorithm: str = option(
+        "NLopt algorithm: mma, slsqp (dense quasi-Newton: O(n^2) memory, O(n^3) time per "
+        "iteration) or lbfgs (limited-memory quasi-Newton with bounds, O(n))", "lbfgs",
+        choices=("mma", "slsqp", "lbfgs"))
+    max_iterations: int = option("iteration limit", 100, ge=0)
+    ftol_rel: float = option("stop on relative objective change below this (the debiased "
+                             "shape term, which tends to 0, also stops on a change below this "
+                             "times rho_H(target, target))", 1.0e-6, ge=0)
+    xtol_rel: float = option("stop on relative design change below this", 0.0, ge=0)
+    move_limit: float = option("MMA works in a box of +- this around the current design "
+                               "(0: the whole bounds); SLSQP always uses the whole bounds",
+                               0.3, ge=0)
+    restart_every: int = option("evaluations before the box is re-centred", 10, ge=2)
+
+
+@dataclass(frozen=True)
+class ContinuationConfig:
+    initial_step: float = option("first growth step from rest, as a fraction of the full growth",
+                                 0.1, gt=0, le=1)
+    min_step: float = option("smallest step before the solve is declared failed", 1.0e-4,
+                             gt=0, le=1)
+    max_steps: int = option("most continuation steps in one solve", 500, ge=1)
+
+
+@dataclass(frozen=True)
+class SolverConfig:
+    linear: str = option("linear solver of the Newton steps", "mumps", choices=("mumps", "gamg"))
+    line_search: str = option("SNES line search (basic is plain Newton, fastest here)", "basic",
+                              choices=("basic", "bt", "l2", "cp"))
+    max_newton_iterations: int = option("Newton iterations per continuation step", 15, ge=1)
+    rtol: float = option("Newton relative residual tolerance", 1.0e-11, gt=0, lt=1)
+    atol: float = option("Newton absolute residual tolerance, relative to the body's force "
+                         "scale (mu1 + mu2 + lambda) |body|^((d-1)/d)", 1.0e-14, gt=0)
+    stol: float = option("Newton stops when an update is below stol times the displacement",
+                         1.0e-9, ge=0, lt=1)
+    adjoint_reuse: bool = option(
+        "solve the adjoint with the last Newton step's factorization, refined against the exact "
+        "tangent (false: assemble and factor the tangent anew)", True)
+    continuation: ContinuationConfig = option("growth continuation and step cutting",
+                                              ContinuationConfig())
+    petsc_options: dict[str, str | float | int | bool] = option(
+        "extra PETSc options, keys with their prefix (state_, adjoint_, filter_)", {})
+
+
+@dataclass(frozen=True)
+class OutputConfig:
+    dir: str | None = option("output folder (default results/<name>)", None)
+    checkpoint_every: int = option("write checkpoint.h5 every this many iterations", 5, ge=1)
+
+
+@dataclass(frozen=True)
+class Config:
+    name: str = option("name of the run")
+    geometry: GeometryConfig = option("reference body")
+    mesh: MeshConfig = option("mesh generation")
+    boundary: BoundaryConfig = option("Dirichlet data")
+    parameters: dict[str, float] = option("extra named numbers usable in expressions", {})
+    model: ModelConfig = option("discretisation", ModelConfig())
+    material: MaterialConfig = option("material", MaterialConfig())
+    loads: LoadsConfig = option("external loads", LoadsConfig())
+    growth: GrowthConfig = option("growth tensor C_g (5.2)-(5.5)", GrowthConfig())
+    target: TargetConfig | None = option("target shape", None)
+    objective: ObjectiveConfig = option("objective", ObjectiveConfig())
+    optimizer: OptimizerConfig = option("optimiser", OptimizerConfig())
+    solver: SolverConfig = option("state solver", SolverConfig())
+    output: OutputConfig = option("outputs", OutputConfig())
+
+    # ---- derived views used across the package -------------------------------------------
+    @property
+    def dim(self) -> int:
+        return self.model.dim
+
+    @property
+    def expression_params(self) -> dict[str, float]:
+        """Numbers an expression may name: geometry parameters and ``parameters``."""
+        names = {k: getattr(self.geometry, k) for k in GEOMETRY_PARAMS[self.geometry.kind]}
+        names.update(self.parameters)
+        return {k: float(v) for k, v in names.items() if v is not None}
+
+    @property
+    def cylinder_axis(self) -> int:
+        """Axis of ``r, theta`` in expressions: X1 for a tube, X3 otherwise."""
+        return 1 if self.geometry.kind == "tube" else 3
+
+    @property
+    def output_dir(self) -> Path:
+        return Path(self.output.dir or f"results/{self.name}")
+
+    @property
+    def quadrature_degree(self) -> int:
+        return self.model.quadrature_degree or 2 * self.model.degree
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)

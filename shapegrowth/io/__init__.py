@@ -1,0 +1,1 @@
+"""What a run writes: JSON, history.csv, fields.xdmf (files.py) and figures (plotting.py)."""

@@ -1,0 +1,172 @@
+"""Pictures of bodies with matplotlib: the deformed boundary surface (3D) or the deformed
+mesh (2D), coloured by a field, and eigenvector glyphs.  For notebooks and figures of
+small meshes: everything is gathered on every rank, and rank 0 draws.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import dolfinx.fem
+import dolfinx.mesh
+import numpy as np
+
+from .. import compat
+
+
+@dataclass
+class Surface:
+    """Triangles of the boundary (3D) or of the cells (2D) with their vertex positions."""
+
+    reference: np.ndarray  # (n, 3) vertex positions X
+    deformed: np.ndarray  # (n, 3) Phi(X) = X + u(X)
+    triangles: np.ndarray  # (m, 3) indices into the positions
+    values: np.ndarray | None  # (n,) a field at the vertices, or None
+
+
+def surface(u: dolfinx.fem.Function, field: dolfinx.fem.Function | None = None) -> Surface:
+    """The body's boundary triangles (its cells in 2D), deformed by the displacement ``u``
+    and coloured by the scalar ``field`` (both evaluated at the vertices)."""
+    mesh = u.function_space.mesh
+    comm, tdim = mesh.comm, mesh.topology.dim
+    if tdim == 3:
+        mesh.topology.create_connectivity(tdim - 1, tdim)
+        entities = dolfinx.mesh.exterior_facet_indices(mesh.topology)
+        dim = tdim - 1
+    else:
+        entities = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
+        dim = tdim
+    nodes = compat.entities_to_geometry(mesh, dim, entities)
+    nodes = nodes[:, :3]  # the corners (straight-sided geometry)
+    x = mesh.geometry.x
+    used = np.unique(nodes)
+    pieces = comm.allgather((x[used], nodes, used))
+    points, triangles, offset = [], [], 0
+    for coords, tri, used in pieces:
+        local = np.searchsorted(used, tri)
+        points.append(coords)
+        triangles.append(local + offset)
+        offset += len(coords)
+    X = np.concatenate(points)
+    tri = np.concatenate(triangles).astype(int)
+    disp = compat.evaluate_at_points(u, X)
+    disp = np.nan_to_num(disp)
+    shift = np.zeros_like(X)
+    shift[:, :disp.shape[1]] = disp
+    values = None if field is None else compat.evaluate_at_points(field, X)[:, 0]
+    return Surface(X, X + shift, tri, values)
+
+
+def draw(ax, surf: Surface, deformed: bool = True, cmap: str = "viridis",
+         alpha: float = 1.0, edgecolor: str | None = None, clim=None,
+         plane: tuple[int, int] = (0, 1)):
+    """Draw on a matplotlib axis: 3D axes show the surface, 2D axes its projection on the
+    coordinate ``plane`` ((0, 2): a side view X1-X3); returns the mappable."""
+    P = surf.deformed if deformed else surf.reference
+    if getattr(ax, "name", "") == "3d":
+        from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+        faces = P[surf.triangles]
+        poly = Poly3DCollection(faces, alpha=alpha, linewidths=0.2,
+                                edgecolor=edgecolor or (0, 0, 0, 0.15))
+        if surf.values is not None:
+            poly.set_array(surf.values[surf.triangles].mean(axis=1))
+            poly.set_cmap(cmap)
+            if clim is not None:
+                poly.set_clim(*clim)
+        else:
+            poly.set_facecolor((0.55, 0.7, 0.9, alpha))
+        ax.add_collection3d(poly)
+        _equal_3d(ax, P)
+        return poly
+    import matplotlib.tri as mtri
+
+    triang = mtri.Triangulation(P[:, plane[0]], P[:, plane[1]], surf.triangles)
+    if surf.values is not None:
+        artist = ax.tripcolor(triang, surf.values, shading="gouraud", cmap=cmap)
+        if clim is not None:
+            artist.set_clim(*clim)
+    else:
+        artist = None
+    ax.triplot(triang, color=edgecolor or "0.3", lw=0.3)
+    ax.set_aspect("equal")
+    return artist
+
+
+def _equal_3d(ax, P: np.ndarray) -> None:
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    centre, half = (lo + hi) / 2, (hi - lo).max() / 2 * 1.05
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_zlim(centre[2] - half, centre[2] + half)
+    ax.set_box_aspect((1, 1, 1))
+
+
+def write_shape_png(path, u: dolfinx.fem.Function, field: dolfinx.fem.Function,
+                    target_points: np.ndarray, label: str) -> None:
+    """The deformed body coloured by ``field`` with the target's sample points as dots, seen
+    along the axis in which the body is thinnest (a side view of a beam, the plane of a 2D
+    body).  Collective; rank 0 writes."""
+    comm = u.function_space.mesh.comm
+    surf = surface(u, field)
+    target = np.concatenate(comm.allgather(np.asarray(target_points)))
+    if comm.rank != 0:
+        return
+    from matplotlib.figure import Figure
+
+    target3 = np.zeros((len(target), 3))
+    target3[:, :target.shape[1]] = target
+    extent = np.ptp(np.vstack([surf.deformed, target3]), axis=0)
+    plane = tuple(sorted(np.argsort(extent)[-2:])) if u.function_space.mesh.geometry.dim == 3 \
+        else (0, 1)
+    span = extent[list(plane)]
+    fig = Figure(figsize=(7.0, max(2.4, min(6.0, 7.0 * span[1] / max(span[0], 1e-12)))),
+                 dpi=120)
+    ax = fig.subplots()
+    artist = draw(ax, surf, plane=plane, edgecolor="0.85")
+    every = max(1, len(target3) // 4000)
+    ax.plot(target3[::every, plane[0]], target3[::every, plane[1]], ".", ms=1.2, color="k",
+            alpha=0.35, label="target")
+    if artist is not None:
+        fig.colorbar(artist, ax=ax, label=label)
+    ax.set_xlabel(f"$x_{plane[0] + 1}$")
+    ax.set_ylabel(f"$x_{plane[1] + 1}$")
+    ax.legend(loc="best", fontsize=7, markerscale=6)
+    fig.tight_layout()
+    fig.savefig(path)
+
+
+def write_frame_png(path, u: dolfinx.fem.Function, eigenvalues: list[dolfinx.fem.Function],
+                    angle: dolfinx.fem.Function, target_points: np.ndarray) -> None:
+    """The eigenvector field of a free 2D frame on the deformed body: v1 (dark) and v2
+    (light) at the vertices, each drawn with length proportional to its stretch
+    sqrt(lambda_i), over the body coloured by lambda_hat_1 and the target's points.
+    Collective; rank 0 writes."""
+    comm = u.function_space.mesh.comm
+    surf = surface(u, eigenvalues[0])
+    lam2 = compat.evaluate_at_points(eigenvalues[1], surf.reference)[:, 0]
+    a = compat.evaluate_at_points(angle, surf.reference)[:, 0]
+    target = np.concatenate(comm.allgather(np.asarray(target_points)))
+    if comm.rank != 0:
+        return
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.4, 5.6), dpi=120)
+    ax = fig.subplots()
+    artist = draw(ax, surf, edgecolor="0.85")
+    every = max(1, len(target) // 4000)
+    ax.plot(target[::every, 0], target[::every, 1], ".", ms=1.0, color="r", alpha=0.25)
+    pick = slice(None, None, max(1, len(a) // 500))  # at most ~500 glyphs
+    P, a, lam1, lam2 = surf.deformed[pick], a[pick], surf.values[pick], lam2[pick]
+    span = np.ptp(surf.deformed[:, :2], axis=0).max()
+    scale = 0.05 * span / np.sqrt(max(lam1.max(), lam2.max()))
+    for v, lam, colour in (((np.cos(a), np.sin(a)), lam1, "k"),
+                           ((-np.sin(a), np.cos(a)), lam2, "0.55")):
+        length = scale * np.sqrt(lam)
+        ax.quiver(P[:, 0], P[:, 1], v[0] * length, v[1] * length, color=colour, pivot="mid",
+                  angles="xy", scale_units="xy", scale=1.0, headwidth=0, headlength=0,
+                  headaxislength=0, width=0.004)
+    fig.colorbar(artist, ax=ax, label="lambda_hat_1")
+    ax.set_title("eigenvectors v1 (dark), v2 (light), length ~ sqrt(lambda_i)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)

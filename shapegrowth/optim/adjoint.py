@@ -1,0 +1,151 @@
+"""The adjoint of the state equation and the sensitivities to the growth fields.
+
+At the converged state, with K = dR/du the tangent (symmetric: R is the first
+variation of an energy), the adjoint p solves (5.12)
+
+    K p = -dJ/du,   p = 0 on the clamped DOFs,
+
+and the derivative of the reduced objective with respect to a growth field f is
+
+    dJ/df [mu] = dJ/df|_u [mu] + dR/df [p, mu],
+
+the second term assembled from ``ufl.derivative`` of R(u; p) (the residual with
+the test function replaced by p).
+
+The tangent at the converged state differs from the last one Newton factored
+(at the iterate before) by O(last update).  So p is first solved with the state
+solver's factors and then refined against the exact tangent, applied matrix-free
+(the action of K on p, a vector assembly): p += K_old^-1 (b - K p) until the
+residual is below 1e-12 of b or the correction below 1e-9 of p.  Two or three
+refinements suffice on a thin beam; this replaces a
+matrix assembly and a factorisation by back-solves and vector assemblies.  Where
+refinement stalls (the factors are of an older state) the tangent is assembled
+and factored anew with the solver of prefix ``adjoint_`` (MUMPS LU by default),
+which ``solver.adjoint_reuse: false`` always does.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import dolfinx.fem
+import dolfinx.fem.petsc
+import ufl
+from petsc4py import PETSc
+
+from ..compat import set_option
+from ..physics.state import StateProblem
+from ..shape.clouds import assemble
+
+log = logging.getLogger(__name__)
+
+
+class AdjointSolveError(RuntimeError):
+    """The adjoint's linear solver did not converge (an optimisation ends on it, reported)."""
+
+
+class AdjointProblem:
+    prefix = "adjoint_"
+    refine_rtol = 1e-12  # residual, relative to b
+    step_rtol = 1e-9  # correction, relative to p
+    max_refinements = 6
+
+    def __init__(self, state: StateProblem):
+        self.state = state
+        self.p = dolfinx.fem.Function(state.V, name="adjoint")
+        self.A = dolfinx.fem.petsc.create_matrix(state.jacobian_form)
+        self.rhs = self.A.createVecRight()
+        self.ksp = PETSc.KSP().create(state.domain.mesh.comm)
+        self.ksp.setOptionsPrefix(self.prefix)
+        opts = PETSc.Options()
+        defaults = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
+        if state.cfg.solver.linear == "gamg":
+            defaults = {"ksp_type": "gmres", "ksp_rtol": 1e-12, "ksp_max_it": 5000,
+                        "ksp_gmres_restart": 200, "pc_type": "gamg"}
+        for key, value in defaults.items():
+            opts[self.prefix + key] = value
+        for key, value in state.cfg.solver.petsc_options.items():
+            if key.startswith(self.prefix):
+                set_option(opts, key, value)
+        self.ksp.setFromOptions()
+        self.reuse = state.cfg.solver.adjoint_reuse
+        self._action = dolfinx.fem.form(ufl.action(state.jacobian_ufl, self.p))
+        self._residual = dolfinx.fem.petsc.create_vector(self._action)  # ghosted
+        self._correction = self.A.createVecRight()
+        self.refinements = 0  # of the last solve; -1: solved with fresh factors
+        mu = ufl.TestFunction(state.applied.space)
+        coupled = ufl.replace(state.residual_ufl, {state.v: self.p})
+        self.design_forms = [dolfinx.fem.form(ufl.derivative(coupled, f, mu))
+                             for f in state.applied.fields]
+
+    def solve(self, dJdu: PETSc.Vec) -> int:
+        """p for the current state; returns the linear iterations (of a fresh solve) or the
+        refinements (with the state's factors)."""
+        st = self.state
+        dJdu.copy(self.rhs)
+        self.rhs.scale(-1.0)
+        dolfinx.fem.petsc.set_bc(self.rhs, st.bcs, scale=0.0)  # p = 0 where u is prescribed
+        if self.reuse and self.state.jacobian_assemblies > 0:
+            try:
+                if self._solve_with_state_factors():
+                    return self.refinements
+            except PETSc.Error as err:  # factors unusable: fall back to fresh ones
+                log.debug("adjoint: the state's factors failed (PETSc error %d)", err.ierr)
+        self.refinements = -1
+        self.A.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(self.A, st.jacobian_form, bcs=st.bcs)
+        self.A.assemble()
+        self.ksp.setOperators(self.A)
+        self.ksp.solve(self.rhs, self.p.vector)
+        if self.ksp.getConvergedReason() < 0:
+            raise AdjointSolveError(f"adjoint solve failed (KSP reason "
+                                    f"{self.ksp.getConvergedReason()}); a direct solver "
+                                    "(solver.linear: mumps) does not fail this way")
+        self.p.x.scatter_forward()
+        return self.ksp.getIterationNumber()
+
+    def _solve_with_state_factors(self) -> bool:
+        """p by the state solver's last factors and refinement; False if it did not converge.
+
+        Converged when the residual is below ``refine_rtol`` of b, or when a correction is
+        below ``step_rtol`` of p: the residual of a thin body's tangent stalls at about
+        cond(K) x eps of b (1e-9 on the tiny beam, serial and on 2 ranks), as it does after
+        a fresh factorisation, and the corrections then fall to ~2e-11 of p."""
+        ksp = self.state.snes.getKSP()
+        p, r, dp = self.p.vector, self._residual, self._correction
+        b_norm = self.rhs.norm()
+        p.zeroEntries()
+        self.rhs.copy(r)
+        r_norm = b_norm
+        for k in range(self.max_refinements + 1):
+            ksp.solve(r, dp)
+            if ksp.getConvergedReason() < 0:
+                return False
+            p.axpy(1.0, dp)
+            p.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            if k > 0 and dp.norm() <= self.step_rtol * p.norm():
+                self.refinements = k
+                return True
+            self._exact_residual(r)
+            previous, r_norm = r_norm, r.norm()
+            if r_norm <= self.refine_rtol * b_norm:
+                self.refinements = k
+                return True
+            if r_norm > 0.5 * previous and k > 1:  # no longer contracting
+                break
+        log.debug("adjoint: refinement with the state's factors stopped at %.2e of the rhs",
+                  r_norm / max(b_norm, 1e-300))
+        return False
+
+    def _exact_residual(self, r: PETSc.Vec) -> None:
+        """r = b - K(u) p with the tangent at the current state, zero on prescribed DOFs."""
+        with r.localForm() as local:
+            local.set(0.0)
+        dolfinx.fem.petsc.assemble_vector(r, self._action)
+        r.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        r.aypx(-1.0, self.rhs)
+        dolfinx.fem.petsc.set_bc(r, self.state.bcs, scale=0.0)
+
+    def sensitivities(self) -> list[PETSc.Vec]:
+        """dR/df [p, .] for every growth field f, as vectors on the growth space."""
+        return [assemble(form) for form in self.design_forms]

@@ -1,0 +1,108 @@
+"""The objective J = S(deformed body, target) + complexity, with its partial
+derivatives: with respect to u (for the adjoint) and, for the complexity terms,
+explicitly with respect to the growth fields.  S is the debiased rho_H (divergence.py)
+or, with ``objective.hausdorff.form: paper``, rho_H of (2.9) itself."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import dolfinx.fem
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from ..config import Config
+from ..physics.state import StateProblem
+from ..shape.clouds import QuadratureCloud, assemble
+from ..shape.divergence import ShapeDivergence
+from ..shape.hausdorff import PointCloud, SmoothHausdorff, exact_hausdorff
+from ..shape.targets import target_cloud
+from .complexity import complexity_density
+
+
+@dataclass
+class ObjectiveValue:
+    total: float  # shape + complexity: what the optimiser minimises
+    rho_H: float  # rho_H(body, target) of (2.9)
+    complexity: float
+    d_target_to_body: float
+    d_body_to_target: float
+    hausdorff: float  # exact Hausdorff distance of the clouds, a by-product of rho_H
+    shape: float  # the shape term: the debiased divergence S, or rho_H (form: paper)
+    alpha: float  # the alpha it was evaluated at
+
+
+class Objective:
+    def __init__(self, cfg: Config, state: StateProblem):
+        h = cfg.objective.hausdorff
+        mesh = state.domain.mesh
+        self.comm = mesh.comm
+        self.state = state
+        self.cloud = QuadratureCloud(mesh, h.quadrature_degree)
+        self.target = target_cloud(cfg, self.cloud, self.comm)
+        self.target_size = self.target.extent(self.comm)  # of the sample points, as rho_H sees it
+        self.divergence = ShapeDivergence(
+            SmoothHausdorff(alpha=h.alphas[0], beta=h.beta, gamma=h.gamma, phi=h.phi,
+                            cutoff=h.cutoff), h.form)
+        self._deformed = self.cloud.deformed_factory(state.u)
+        self._pullback, self._fill = self.cloud.pullback_form(state.u)
+        density = complexity_density(cfg.objective.complexity, state.applied)
+        self._complexity = None
+        if density is not None:
+            dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": 4})
+            mu = ufl.TestFunction(state.applied.space)
+            self._complexity = dolfinx.fem.form(density * dx)
+            self._complexity_derivatives = [
+                dolfinx.fem.form(ufl.derivative(density * dx, f, mu)) for f in state.applied.fields]
+
+    @property
+    def alpha(self) -> float:
+        return self.divergence.rho.alpha
+
+    def set_alpha(self, alpha: float) -> None:
+        """Sharpen (or soften) the shape term: one stage of an alpha schedule."""
+        if alpha != self.alpha:
+            self.divergence = self.divergence.with_alpha(alpha)
+
+    def stopping_scale(self) -> float:
+        """The size of an objective change that counts as progress near the optimum, for the
+        optimiser's ftol_rel: the debiased S tends to 0 at the target, so a change relative to
+        S itself would never be small; rho_H(T, T), the value rho_H of (2.9) takes there, is
+        the scale the paper form's relative test sees.  0 for the paper form."""
+        if not self.divergence.debiased:
+            return 0.0
+        return self.divergence.target_self(self.target, self.comm)
+
+    def deformed(self) -> PointCloud:
+        return self._deformed()
+
+    def evaluate(self, gradient: bool) -> tuple[ObjectiveValue, PETSc.Vec | None]:
+        """J at the current state; with ``gradient``, also dJ/du as a vector."""
+        result = self.divergence(self.deformed(), self.target, self.comm, gradient=gradient)
+        pair = result.pair
+        complexity = 0.0
+        if self._complexity is not None:
+            complexity = self.comm.allreduce(
+                dolfinx.fem.assemble_scalar(self._complexity), MPI.SUM)
+        value = ObjectiveValue(result.value + complexity, pair.value, complexity,
+                               pair.d_target_to_body, pair.d_body_to_target,
+                               pair.hausdorff, result.value, self.alpha)
+        if not gradient:
+            return value, None
+        self._fill(result.grad_points, result.grad_weights)
+        return value, assemble(self._pullback)
+
+    def explicit_growth_derivatives(self) -> list[PETSc.Vec] | None:
+        """dJ/d(growth field) at fixed u: the complexity terms only (None without them)."""
+        if self._complexity is None:
+            return None
+        return [assemble(form) for form in self._complexity_derivatives]
+
+    def exact_hausdorff(self) -> float:
+        return exact_hausdorff(self.deformed(), self.target, self.comm)
+
+    def relative_error(self) -> float:
+        return self.exact_hausdorff() / self.target_size if self.target_size > 0 else np.inf

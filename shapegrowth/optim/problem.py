@@ -1,0 +1,173 @@
+"""The reduced functional J(m) of (5.6) and its gradient, for the design vector m.
+
+m holds this rank's owned nodal values of the design fields (the unfiltered
+lambda_i listed in ``growth.eigenvalues.design``, then, for ``frame: free``, the
+theta_i), field after field.  One evaluation is the chain rule read forwards,
+the gradient the same chain backwards:
+
+    filter.forward -> C_g -> state solve -> J (rho_H + complexity)
+    dJ/dm = filter.backward( dJ/dC_g|_u + adjoint sensitivities )
+
+The gradient returned is the derivative of J with respect to the entries of m
+(the Euclidean, "nodal" gradient): that is what NLopt's MMA and SLSQP use, and
+the Taylor test checks.  (The L2 Riesz representative would be M^-1 times it.)
+
+Results are cached for the last m; a new m clears the cache (the state is then
+re-solved from the last equilibrium, a warm start).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import dolfinx.fem
+import numpy as np
+from mpi4py import MPI
+
+from ..config import Config
+from ..physics.filters import HelmholtzFilter
+from ..physics.model import ForwardModel
+from ..physics.state import SolveReport
+from ..timing import Timer
+from .adjoint import AdjointProblem
+from .objective import Objective, ObjectiveValue
+
+log = logging.getLogger(__name__)
+
+
+class StateSolveError(RuntimeError):
+    """The state could not be brought into equilibrium for this design."""
+
+    def __init__(self, report: SolveReport):
+        super().__init__(report.reason)
+        self.report = report
+
+
+@dataclass
+class Evaluation:
+    value: ObjectiveValue
+    gradient: np.ndarray | None
+    report: SolveReport
+
+
+class ReducedFunctional:
+    def __init__(self, model: ForwardModel, timer: Timer | None = None):
+        cfg: Config = model.cfg
+        self.cfg, self.model = cfg, model
+        self.timer = timer or Timer()
+        self.comm: MPI.Comm = model.comm
+        growth = model.growth
+        self.space = growth.space
+        self.n_owned = self.space.dofmap.index_map.size_local
+        # the filtered fields lambda_hat, theta_hat that C_g is made of, and their bounds
+        eig = cfg.growth.eigenvalues
+        self.targets = [growth.eigenvalues[i - 1] for i in eig.design] + list(growth.angles)
+        self.bounds_per_field = [eig.bounds] * len(eig.design) + \
+            [tuple(b) for b in cfg.growth.angles.bounds[:len(growth.angles)]]
+        self.names = [f"lambda_{i}" for i in eig.design] + \
+            [f"theta_{k + 1}" for k in range(len(growth.angles))]
+        self.design = [dolfinx.fem.Function(self.space, name=n) for n in self.names]
+        for rho, field in zip(self.design, self.targets):
+            rho.x.array[:] = field.x.array  # the initial growth is the initial design
+        self.filter = HelmholtzFilter(self.space, cfg.growth.filter_length,
+                                      cfg.solver.petsc_options)
+        self.objective = Objective(cfg, model.state)
+        self.adjoint = AdjointProblem(model.state)
+        self._indices = [growth.fields.index(f) for f in self.targets]
+        self._key: bytes | None = None
+        self._last: Evaluation | None = None
+        self._report: SolveReport | None = None  # the state solve of the design ``_key``
+        self.evaluations = 0
+
+    # ---- the design vector -----------------------------------------------------------------
+    @property
+    def size(self) -> int:
+        return self.n_owned * len(self.design)
+
+    def current(self) -> np.ndarray:
+        return np.concatenate([rho.x.array[:self.n_owned] for rho in self.design])
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo = np.concatenate([np.full(self.n_owned, b[0]) for b in self.bounds_per_field])
+        hi = np.concatenate([np.full(self.n_owned, b[1]) for b in self.bounds_per_field])
+        return lo, hi
+
+    def _apply(self, m: np.ndarray) -> None:
+        with self.timer("filter"):
+            for k, (rho, field) in enumerate(zip(self.design, self.targets)):
+                rho.x.array[:self.n_owned] = m[k * self.n_owned:(k + 1) * self.n_owned]
+                rho.x.scatter_forward()
+                self.filter.forward(rho, field)
+
+    # ---- J and dJ/dm -----------------------------------------------------------------------
+    def evaluate(self, m: np.ndarray, gradient: bool = True) -> Evaluation:
+        m = np.ascontiguousarray(m, dtype=float)
+        key = m.tobytes()
+        if key == self._key and self._last is not None and (
+                self._last.gradient is not None or not gradient):
+            return self._last
+        state = self.model.state
+        if key != self._key or self._report is None:
+            self._apply(m)
+            with self.timer("forward"):
+                report = state.solve()
+            if not report.converged:
+                self._key, self._last, self._report = None, None, None
+                raise StateSolveError(report)
+            self._report = report
+        else:
+            report = self._report  # the state is this design's: only J (and dJ) are new
+        self.evaluations += 1
+        with self.timer("hausdorff"):
+            value, dJdu = self.objective.evaluate(gradient)
+        grad = None
+        if gradient:
+            grad = self._gradient(dJdu)
+        self._key, self._last = key, Evaluation(value, grad, report)
+        return self._last
+
+    def restart_from_rest(self) -> None:
+        """The next evaluation solves its state from rest (load steps from C_g = I), even for
+        the design evaluated last: the state and the cached evaluation are both dropped."""
+        self.model.state.reset()
+        self._key, self._last, self._report = None, None, None
+
+    def set_alpha(self, alpha: float) -> None:
+        """One stage of an alpha schedule: J changes, the state does not (the cached
+        equilibrium is kept, the cached J and dJ are dropped)."""
+        if alpha != self.objective.alpha:
+            self.objective.set_alpha(alpha)
+            self._last = None
+
+    def _gradient(self, dJdu) -> np.ndarray:
+        with self.timer("adjoint", "adjoint_solve"):
+            self.adjoint.solve(dJdu)
+        with self.timer("adjoint", "sensitivities"):
+            sens = self.adjoint.sensitivities()
+            explicit = self.objective.explicit_growth_derivatives()
+            if explicit is not None:
+                for s, e in zip(sens, explicit):
+                    s.axpy(1.0, e)
+        parts = []
+        with self.timer("filter", "filter_backward"):
+            for i in self._indices:
+                out = sens[i].duplicate()
+                self.filter.backward(sens[i], out)
+                parts.append(out.array[:self.n_owned].copy())
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def __call__(self, m: np.ndarray) -> float:
+        return self.evaluate(m, gradient=False).value.total
+
+    def gradient(self, m: np.ndarray) -> np.ndarray:
+        return self.evaluate(m, gradient=True).gradient
+
+    def dot(self, a: np.ndarray, b: np.ndarray) -> float:
+        """Euclidean inner product of two distributed design vectors."""
+        return self.comm.allreduce(float(np.dot(a, b)), MPI.SUM)
+
+    def design_coordinates(self) -> np.ndarray:
+        """Coordinates of the owned design DOFs, repeated per field (for smooth directions)."""
+        x = self.space.tabulate_dof_coordinates()[:self.n_owned]
+        return np.concatenate([x] * len(self.design))

@@ -1,0 +1,89 @@
+"""Dirichlet data: a clamped named boundary, or the removal of rigid motions only.
+
+``clamp: rigid`` pins three vertices in the 3-2-1 pattern: A, the vertex nearest
+the centre of the body, in every direction; B, on the X1-line through A, in X2
+and X3; C, in A's X3-plane off towards +X2, in X3 (2D: A in both directions, B
+in X2).  These six (three in 2D) constraints are statically determinate: they
+stop the rigid motions and, under self-equilibrated loading such as growth,
+carry no reaction, so they do not constrain the deformation.  Where the mesh has
+no vertex exactly on that line or plane, growth alone is still reaction-free
+(the body can rotate) but dead loads would see a small reaction.
+"""
+
+from __future__ import annotations
+
+import dolfinx.fem
+import dolfinx.mesh
+import numpy as np
+from mpi4py import MPI
+
+from .geometry import Domain
+
+
+def clamp_conditions(V, domain: Domain, clamp: str) -> list:
+    """Homogeneous Dirichlet conditions for the displacement space ``V``."""
+    mesh = domain.mesh
+    if clamp == "rigid":
+        return _rigid_pins(V, mesh)
+    fdim = mesh.topology.dim - 1
+    facets = domain.facet_tags.find(domain.boundaries[clamp])
+    dofs = dolfinx.fem.locate_dofs_topological(V, fdim, facets)
+    zero = np.zeros(mesh.geometry.dim, dtype=np.float64)
+    return [dolfinx.fem.dirichletbc(zero, dofs, V)]
+
+
+def body_box(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Global bounding box (lo, hi) of the mesh nodes, in 3 coordinates."""
+    x = mesh.geometry.x
+    lo = x.min(axis=0) if len(x) else np.full(3, np.inf)
+    hi = x.max(axis=0) if len(x) else np.full(3, -np.inf)
+    mesh.comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
+    mesh.comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
+    return lo, hi
+
+
+def best_vertex(mesh, key) -> np.ndarray:
+    """Coordinates of the mesh vertex with the smallest ``key(x) -> (n, k)`` row
+    (compared lexicographically), the same on every rank and for every partition."""
+    x = mesh.geometry.x
+    if len(x):
+        keys = np.round(key(x), 12)
+        order = np.lexsort((x[:, 2], x[:, 1], x[:, 0], *keys.T[::-1]))
+        local = (tuple(keys[order[0]]), tuple(x[order[0]]))
+    else:
+        local = ((np.inf,), (0.0, 0.0, 0.0))
+    best = min(mesh.comm.allgather(local))
+    return np.array(best[1])
+
+
+def _rigid_pins(V, mesh) -> list:
+    """Pins A (all directions), B (X2, X3), C (X3) with B on the X1-line through A
+    and C in A's X3-plane when the mesh has such vertices, so that any homogeneous
+    deformation about A leaves the pins without reaction."""
+    gdim = mesh.geometry.dim
+    lo, hi = body_box(mesh)
+    centre, extent = (lo + hi) / 2, hi - lo
+    a = best_vertex(mesh, lambda x: np.linalg.norm(x - centre, axis=1)[:, None])
+
+    def off_axis(x, axis, far):
+        """Rows (misalignment, distance from the ideal spot) for a partner of A."""
+        d = x - a
+        misaligned = np.linalg.norm(np.delete(d, [axis] + ([] if gdim == 3 else [2]), axis=1)
+                                    if far else d[:, [2]], axis=1)
+        too_close = d[:, axis] < 0.25 * extent[axis]
+        return np.column_stack([too_close, misaligned, np.abs(d[:, axis] - 0.45 * extent[axis])])
+
+    b = best_vertex(mesh, lambda x: off_axis(x, 0, far=True))
+    pins = [(a, range(gdim)), (b, range(1, gdim))]
+    if gdim == 3:
+        c = best_vertex(mesh, lambda x: off_axis(x, 1, far=False))
+        pins.append((c, [2]))
+    tol = 1e-10 * max(float(extent.max()), 1.0)
+    bcs = []
+    for point, components in pins:
+        vertices = dolfinx.mesh.locate_entities(
+            mesh, 0, lambda x, p=point: np.linalg.norm(x - p.reshape(3, 1), axis=0) < tol)
+        for c in components:
+            dofs = dolfinx.fem.locate_dofs_topological(V.sub(c), 0, vertices)
+            bcs.append(dolfinx.fem.dirichletbc(np.float64(0.0), dofs, V.sub(c)))
+    return bcs

@@ -1,0 +1,70 @@
+"""The Helmholtz filter of (5.7): rho_hat - l^2 Laplace(rho_hat) = rho, zero flux.
+
+On the growth space with mass matrix M and K = M + l^2 S (S the stiffness
+matrix), the filtered nodal values are rho_hat = K^-1 M rho (``forward``).  A
+derivative with respect to rho_hat (a dual vector) is carried back to rho by the
+transpose, M K^-1 (``backward``; K and M are symmetric).  l = 0 is the identity.
+The solver has the options prefix ``filter_`` (CG + Jacobi by default: K is a
+well-conditioned SPD matrix, about as cheap as a mass matrix).
+"""
+
+from __future__ import annotations
+
+import dolfinx.fem
+import dolfinx.fem.petsc
+import ufl
+from petsc4py import PETSc
+
+from ..compat import set_option
+
+
+class HelmholtzFilter:
+    prefix = "filter_"
+
+    def __init__(self, space, length: float, petsc_options: dict | None = None):
+        self.space, self.length = space, float(length)
+        if self.length == 0.0:
+            return
+        u, v = ufl.TrialFunction(space), ufl.TestFunction(space)
+        # the growth fields are at most quadratic: degree 4 integrates the mass matrix exactly
+        dx = ufl.Measure("dx", domain=space.mesh, metadata={"quadrature_degree": 4})
+        l2 = dolfinx.fem.Constant(space.mesh, PETSc.ScalarType(self.length**2))
+        self.K = dolfinx.fem.petsc.assemble_matrix(
+            dolfinx.fem.form((u * v + l2 * ufl.inner(ufl.grad(u), ufl.grad(v))) * dx))
+        self.K.assemble()
+        self.M = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(u * v * dx))
+        self.M.assemble()
+        self.ksp = PETSc.KSP().create(space.mesh.comm)
+        self.ksp.setOptionsPrefix(self.prefix)
+        opts = PETSc.Options()
+        defaults = {"ksp_type": "cg", "pc_type": "jacobi", "ksp_rtol": 1e-13, "ksp_atol": 1e-30,
+                    "ksp_max_it": 2000}
+        for key, value in defaults.items():
+            opts[self.prefix + key] = value
+        for key, value in (petsc_options or {}).items():
+            if key.startswith(self.prefix):
+                set_option(opts, key, value)
+        self.ksp.setOperators(self.K)
+        self.ksp.setFromOptions()
+        self._work = self.K.createVecRight()
+
+    @property
+    def active(self) -> bool:
+        return self.length > 0.0
+
+    def forward(self, rho: dolfinx.fem.Function, out: dolfinx.fem.Function) -> None:
+        """out <- K^-1 M rho."""
+        if not self.active:
+            out.x.array[:] = rho.x.array
+            return
+        self.M.mult(rho.vector, self._work)
+        self.ksp.solve(self._work, out.vector)
+        out.x.scatter_forward()
+
+    def backward(self, dual: PETSc.Vec, out: PETSc.Vec) -> None:
+        """out <- M K^-1 dual (both dual vectors: derivatives with respect to nodal values)."""
+        if not self.active:
+            dual.copy(out)
+            return
+        self.ksp.solve(dual, self._work)
+        self.M.mult(self._work, out)

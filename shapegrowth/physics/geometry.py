@@ -1,0 +1,339 @@
+"""Reference bodies built with gmsh, cached under ``meshes/`` and read into dolfinx.
+
+Placement (CONTRACT.md):
+
+* ``box``: X1 in [0, L], X2 in [-w/2, w/2], X3 in [-t/2, t/2]; unstructured
+  triangles of size h in the X1-X2 plane, extruded through the thickness in
+  ``layers`` elements.
+* ``tube``: hollow circular cylinder about the X1 axis, X1 in [0, L], outer
+  radius R, wall t; a structured ring (``layers`` through the wall, size h
+  around) swept along X1 in steps of h.
+* ``annulus``: R1 <= r <= R2 in the X1-X2 plane, X3 in [-t/2, t/2].
+* ``cylinder_shell``: axis X3, outer radius R, wall t, X3 in [0, height];
+  structured ring swept along X3.
+* ``rectangle`` (2D) and ``cube``: side s, centred at the origin; structured
+  (criss-cross triangles, hexahedra split in six tetrahedra) with an even number
+  of divisions about s/h, so the centre and the axes through it carry vertices
+  (``clamp: rigid`` pins them; see boundary.py).
+
+Every boundary listed in :data:`shapegrowth.config.BOUNDARIES` is a physical
+group; its tag is its position in that list plus one.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from ..config import BOUNDARIES, GEOMETRY_PARAMS, LAYERED, Config, ConfigError
+
+log = logging.getLogger(__name__)
+
+BUILDER_VERSION = 3  # bump when a builder changes, so cached meshes are rebuilt
+
+
+@dataclass
+class Domain:
+    """A distributed dolfinx mesh with its named boundaries."""
+
+    mesh: object  # dolfinx.mesh.Mesh
+    facet_tags: object  # dolfinx.mesh.MeshTags
+    boundaries: dict[str, int]
+    kind: str
+    path: Path
+
+    @property
+    def dim(self) -> int:
+        return self.mesh.topology.dim
+
+
+def _params(cfg: Config) -> dict[str, float | int | str]:
+    geo = cfg.geometry
+    params: dict[str, float | int | str] = {"kind": geo.kind, "size": cfg.mesh.size,
+                                            "builder": BUILDER_VERSION}
+    for name in GEOMETRY_PARAMS[geo.kind]:
+        params[name] = getattr(geo, name)
+    if geo.kind in LAYERED:
+        params["layers"] = cfg.mesh.layers
+    if cfg.mesh.refine:
+        params["refine"] = cfg.mesh.refine
+    if cfg.mesh.clamp_size is not None:
+        params["clamp_size"], params["grading"] = cfg.mesh.clamp_size, cfg.mesh.grading
+    return params
+
+
+def mesh_path(cfg: Config) -> Path:
+    """Cache file of the config's mesh, keyed by every parameter that shapes it."""
+    params = _params(cfg)
+    key = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:12]
+    return Path(cfg.mesh.cache_dir) / f"{cfg.geometry.kind}-{key}.msh"
+
+
+def ensure_mesh(cfg: Config, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[Path, bool]:
+    """Build the mesh file on rank 0 unless cached; returns (path, built_now)."""
+    path = mesh_path(cfg)
+    built = False
+    if comm.rank == 0 and not path.is_file():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp.msh")
+        _build(cfg, tmp)
+        os.replace(tmp, path)  # atomic: a concurrent reader never sees half a file
+        path.with_suffix(".json").write_text(json.dumps(_params(cfg), indent=1))
+        built = True
+    built = comm.bcast(built, root=0)
+    comm.barrier()
+    return path, built
+
+
+def load_domain(cfg: Config, comm: MPI.Comm = MPI.COMM_WORLD) -> Domain:
+    """The config's mesh (built or taken from the cache), distributed over ``comm``."""
+    from ..compat import read_gmsh
+
+    path, built = ensure_mesh(cfg, comm)
+    mesh, _, facet_tags = read_gmsh(path, comm, gdim=cfg.model.dim)
+    boundaries = {name: i + 1 for i, name in enumerate(BOUNDARIES[cfg.geometry.kind])}
+    cells = comm.allreduce(mesh.topology.index_map(mesh.topology.dim).size_local, MPI.SUM)
+    log.info("mesh %s: %d cells%s", path, cells, " (built)" if built else " (cached)")
+    check_cells(mesh)
+    return Domain(mesh, facet_tags, boundaries, cfg.geometry.kind, path)
+
+
+def check_cells(mesh, flat: float = 1e-8) -> None:
+    """Refuse meshes with flat (or collapsed) cells: |det J| below ``flat`` times the
+    median.  Newton would meet a singular tangent there, far from the cause."""
+    import dolfinx.fem
+    import ufl
+
+    from ..compat import interpolate_expression
+
+    dg0 = dolfinx.fem.Function(dolfinx.fem.FunctionSpace(mesh, ("DG", 0)))
+    interpolate_expression(dg0, abs(ufl.JacobianDeterminant(mesh)))
+    n = mesh.topology.index_map(mesh.topology.dim).size_local
+    det = dg0.x.array[:n]
+    comm = mesh.comm
+    every = np.concatenate(comm.allgather(det))
+    median = float(np.median(every)) if len(every) else 0.0
+    bad = int(np.sum(every <= flat * median)) if median > 0 else len(every)
+    if bad:
+        raise ConfigError([f"mesh.size: {bad} of {len(every)} cells are flat or collapsed "
+                           f"(volume below {flat:g} of the median); refine the mesh or check "
+                           "the geometry"])
+
+
+# ---- gmsh builders (rank 0 only) ---------------------------------------------------------
+
+def _build(cfg: Config, path: Path) -> None:
+    import gmsh
+
+    geo, h = cfg.geometry, cfg.mesh.size
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(geo.kind)
+        builders = {"box": _box, "tube": _tube, "annulus": _annulus,
+                    "cylinder_shell": _cylinder_shell, "rectangle": _rectangle, "cube": _cube}
+        builders[geo.kind](gmsh, cfg, h)
+        _physical_groups(gmsh, cfg)
+        gmsh.model.mesh.generate(cfg.model.dim)
+        for _ in range(cfg.mesh.refine):
+            gmsh.model.mesh.refine()
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
+def _count(extent: float, h: float, minimum: int = 1) -> int:
+    return max(minimum, int(round(extent / h)))
+
+
+def _box(gmsh, cfg: Config, h: float) -> None:
+    g = cfg.geometry
+    occ = gmsh.model.occ
+    rect = occ.addRectangle(0.0, -g.width / 2, -g.thickness / 2, g.length, g.width)
+    occ.extrude([(2, rect)], 0, 0, g.thickness, numElements=[cfg.mesh.layers])
+    occ.synchronize()
+    gmsh.model.mesh.setSize(gmsh.model.getEntities(0), h)
+    if cfg.mesh.clamp_size is not None:
+        _graded_towards_x1_min(gmsh, rect, cfg.mesh.clamp_size, h, cfg.mesh.grading)
+
+
+def _graded_towards_x1_min(gmsh, surface: int, h_min: float, h: float, rate: float) -> None:
+    """Element size h_min on the edge X1 = 0 of the extruded ``surface``, growing by
+    ``rate`` per unit distance up to h (the extrusion carries the graded triangles
+    through the thickness)."""
+    edges = [tag for dim, tag in gmsh.model.getBoundary([(2, surface)], oriented=False)
+             if abs(gmsh.model.occ.getCenterOfMass(dim, tag)[0]) < 1e-12]
+    field = gmsh.model.mesh.field
+    distance = field.add("Distance")
+    field.setNumbers(distance, "CurvesList", edges)
+    field.setNumber(distance, "NumPointsPerCurve", 100)
+    ramp = field.add("MathEval")
+    field.setString(ramp, "F", f"min({h}, {h_min} + {rate} * F{distance})")
+    field.setAsBackgroundMesh(ramp)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+
+
+def _annulus(gmsh, cfg: Config, h: float) -> None:
+    g = cfg.geometry
+    occ = gmsh.model.occ
+    outer = occ.addDisk(0, 0, -g.thickness / 2, g.radius, g.radius)
+    inner = occ.addDisk(0, 0, -g.thickness / 2, g.inner_radius, g.inner_radius)
+    ring, _ = occ.cut([(2, outer)], [(2, inner)])
+    occ.extrude(ring, 0, 0, g.thickness, numElements=[cfg.mesh.layers])
+    occ.synchronize()
+    gmsh.model.mesh.setSize(gmsh.model.getEntities(0), h)
+
+
+def _structured_ring(gmsh, r_in: float, r_out: float, n_around: int, n_wall: int,
+                     plane: str) -> list[int]:
+    """Four transfinite quarter-ring surfaces (geo kernel) in the plane 'yz' or 'xy'."""
+    geo = gmsh.model.geo
+
+    def point(r: float, angle: float) -> int:
+        a, b = r * math.cos(angle), r * math.sin(angle)
+        return geo.addPoint(0.0, a, b) if plane == "yz" else geo.addPoint(a, b, 0.0)
+
+    centre = geo.addPoint(0.0, 0.0, 0.0)
+    angles = [k * math.pi / 2 for k in range(4)]
+    p_in = [point(r_in, a) for a in angles]
+    p_out = [point(r_out, a) for a in angles]
+    radial = [geo.addLine(p_in[k], p_out[k]) for k in range(4)]
+    arc_in = [geo.addCircleArc(p_in[k], centre, p_in[(k + 1) % 4]) for k in range(4)]
+    arc_out = [geo.addCircleArc(p_out[k], centre, p_out[(k + 1) % 4]) for k in range(4)]
+    surfaces = []
+    for k in range(4):
+        loop = geo.addCurveLoop([radial[k], arc_out[k], -radial[(k + 1) % 4], -arc_in[k]])
+        surfaces.append(geo.addPlaneSurface([loop]))
+    geo.synchronize()
+    quarter = max(2, int(math.ceil(n_around / 4)))
+    for c in radial:
+        gmsh.model.mesh.setTransfiniteCurve(c, n_wall + 1)
+    for c in arc_in + arc_out:
+        gmsh.model.mesh.setTransfiniteCurve(c, quarter + 1)
+    for s in surfaces:
+        gmsh.model.mesh.setTransfiniteSurface(s, arrangement="Alternate")
+    return surfaces
+
+
+def _tube(gmsh, cfg: Config, h: float) -> None:
+    g = cfg.geometry
+    n_around = _count(2 * math.pi * g.radius, h, minimum=8)
+    surfaces = _structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
+                                cfg.mesh.layers, plane="yz")
+    gmsh.model.geo.extrude([(2, s) for s in surfaces], g.length, 0, 0,
+                           numElements=[_count(g.length, h)])
+    gmsh.model.geo.synchronize()
+
+
+def _cylinder_shell(gmsh, cfg: Config, h: float) -> None:
+    g = cfg.geometry
+    n_around = _count(2 * math.pi * g.radius, h, minimum=8)
+    surfaces = _structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
+                                cfg.mesh.layers, plane="xy")
+    gmsh.model.geo.extrude([(2, s) for s in surfaces], 0, 0, g.height,
+                           numElements=[_count(g.height, h)])
+    gmsh.model.geo.synchronize()
+
+
+def _even_count(extent: float, h: float) -> int:
+    """Divisions of a side: about extent/h, even so that the centre is a vertex."""
+    return 2 * max(1, int(round(extent / h / 2)))
+
+
+def _structured(gmsh, n: int) -> None:
+    """Transfinite mesh of every entity, n divisions per edge.
+
+    A square gets criss-cross triangles; a cube's faces get the diagonals of
+    gmsh's split of each hexahedron into six tetrahedra ("Left"), the only
+    arrangement whose face triangles are faces of the tetrahedra.
+    """
+    mesh = gmsh.model.mesh
+    solid = bool(gmsh.model.getEntities(3))
+    for _, tag in gmsh.model.getEntities(1):
+        mesh.setTransfiniteCurve(tag, n + 1)
+    for _, tag in gmsh.model.getEntities(2):
+        mesh.setTransfiniteSurface(tag, arrangement="Left" if solid else "Alternate")
+    for _, tag in gmsh.model.getEntities(3):
+        mesh.setTransfiniteVolume(tag)
+
+
+def _rectangle(gmsh, cfg: Config, h: float) -> None:
+    s = cfg.geometry.side
+    gmsh.model.occ.addRectangle(-s / 2, -s / 2, 0.0, s, s)
+    gmsh.model.occ.synchronize()
+    _structured(gmsh, _even_count(s, h))
+
+
+def _cube(gmsh, cfg: Config, h: float) -> None:
+    s = cfg.geometry.side
+    gmsh.model.occ.addBox(-s / 2, -s / 2, -s / 2, s, s, s)
+    gmsh.model.occ.synchronize()
+    _structured(gmsh, _even_count(s, h))
+
+
+def _boundary_name(kind: str, cfg: Config, lo: np.ndarray, hi: np.ndarray,
+                   tol: float) -> str | None:
+    """Name of the boundary entity with bounding box [lo, hi], from its position."""
+    g = cfg.geometry
+    flat = [i for i in range(3) if hi[i] - lo[i] < tol]
+    if kind in ("box", "cube", "rectangle"):
+        if kind == "box":
+            body_lo = (0.0, -g.width / 2, -g.thickness / 2)
+            body_hi = (g.length, g.width / 2, g.thickness / 2)
+        else:
+            body_lo, body_hi = (-g.side / 2,) * 3, (g.side / 2,) * 3
+        for i in flat:
+            if abs(lo[i] - body_lo[i]) < tol:
+                return f"x{i + 1}_min"
+            if abs(lo[i] - body_hi[i]) < tol:
+                return f"x{i + 1}_max"
+        return None
+    axis = 0 if kind == "tube" else 2
+    far = max(abs(lo[i]) for i in range(3) if i != axis)
+    far = max(far, max(abs(hi[i]) for i in range(3) if i != axis))
+    if kind == "tube":
+        if axis in flat:
+            return "x1_min" if abs(lo[0]) < tol else "x1_max"
+        return "outer" if abs(far - g.radius) < tol else "inner"
+    if kind == "cylinder_shell":
+        if axis in flat:
+            return "bottom_rim" if abs(lo[2]) < tol else "top_rim"
+        return "outer" if abs(far - g.radius) < tol else "inner"
+    if kind == "annulus":
+        if axis in flat:
+            return "x3_min" if lo[2] < 0 else "x3_max"
+        return "outer_rim" if abs(far - g.radius) < tol else "inner_rim"
+    return None
+
+
+def _physical_groups(gmsh, cfg: Config) -> None:
+    kind, dim = cfg.geometry.kind, cfg.model.dim
+    names = BOUNDARIES[kind]
+    tol = 1e-6 * max(v for v in cfg.expression_params.values())
+    groups: dict[str, list[int]] = {name: [] for name in names}
+    for _, tag in gmsh.model.getEntities(dim - 1):
+        upward, _ = gmsh.model.getAdjacencies(dim - 1, tag)
+        if len(upward) != 1:
+            continue  # an interface between two volumes of the same body
+        box = np.array(gmsh.model.getBoundingBox(dim - 1, tag))
+        name = _boundary_name(kind, cfg, box[:3], box[3:], tol)
+        if name is None:
+            raise RuntimeError(f"cannot classify boundary entity {tag} of a {kind}")
+        groups[name].append(tag)
+    for i, name in enumerate(names):
+        gmsh.model.addPhysicalGroup(dim - 1, groups[name], i + 1)
+        gmsh.model.setPhysicalName(dim - 1, i + 1, name)
+    volumes = [tag for _, tag in gmsh.model.getEntities(dim)]
+    gmsh.model.addPhysicalGroup(dim, volumes, 1)
+    gmsh.model.setPhysicalName(dim, 1, "body")

@@ -1,0 +1,81 @@
+"""The forward model put together: mesh, growth fields and state for one config, and
+the quantities a solved body reports (volumes, stress, residual strain)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import dolfinx.fem
+import numpy as np
+import ufl
+from mpi4py import MPI
+
+from .. import compat
+from ..config import Config
+from .geometry import Domain, load_domain
+from .growth import Growth
+from .state import StateProblem
+
+
+@dataclass
+class ForwardModel:
+    cfg: Config
+    domain: Domain
+    growth: Growth
+    state: StateProblem
+
+    @classmethod
+    def build(cls, cfg: Config, comm: MPI.Comm = MPI.COMM_WORLD) -> ForwardModel:
+        domain = load_domain(cfg, comm)
+        growth = Growth.from_config(domain.mesh, cfg)
+        state = StateProblem(domain, cfg, growth)
+        return cls(cfg, domain, growth, state)
+
+    @property
+    def comm(self) -> MPI.Comm:
+        return self.domain.mesh.comm
+
+    def integrate(self, integrand: ufl.core.expr.Expr) -> float:
+        value = dolfinx.fem.assemble_scalar(dolfinx.fem.form(integrand * self.state.dx))
+        return self.comm.allreduce(value, MPI.SUM)
+
+    def volumes(self) -> tuple[float, float]:
+        """Reference and deformed volume (area in 2D)."""
+        one = dolfinx.fem.Constant(self.domain.mesh, 1.0)
+        deformed = ufl.det(self.state.deformation_gradient())
+        return self.integrate(one), self.integrate(deformed)
+
+    def stress_norm(self) -> float:
+        """L2 norm of the first Piola-Kirchhoff stress over the reference body."""
+        P = self.state.first_piola()
+        return float(np.sqrt(max(self.integrate(ufl.inner(P, P)), 0.0)))
+
+    def residual_strain(self) -> ufl.core.expr.Expr:
+        """A^T A - I with A = F G^-1, the elastic strain the growth leaves: zero where the body
+        grew stress-free (compatible growth), nonzero where growth is incompatible."""
+        Ginv = self.state.applied.inverse_root()
+        A = self.state.deformation_gradient() * Ginv
+        return A.T * A - ufl.Identity(self.state.dim)
+
+    def residual_strain_norm(self) -> float:
+        """RMS of |A^T A - I| over the reference body: sqrt(int |E|^2 / |body|)."""
+        E = self.residual_strain()
+        one = dolfinx.fem.Constant(self.domain.mesh, 1.0)
+        return float(np.sqrt(max(self.integrate(ufl.inner(E, E)), 0.0) / self.integrate(one)))
+
+    def residual_strain_field(self) -> dolfinx.fem.Function:
+        """|A^T A - I| as a P1 field for fields.xdmf."""
+        f = dolfinx.fem.Function(compat.scalar_space(self.domain.mesh, 1), name="residual_strain")
+        E = self.residual_strain()
+        compat.interpolate_expression(f, ufl.sqrt(ufl.inner(E, E)))
+        return f
+
+    def design_dofs(self) -> int:
+        g = self.cfg.growth
+        n_fields = len(g.eigenvalues.design) + (len(self.growth.angles) if g.frame == "free" else 0)
+        return n_fields * compat.global_size(self.growth.space)
+
+
+def build_model(cfg: Config, comm: MPI.Comm = MPI.COMM_WORLD) -> ForwardModel:
+    """Mesh, growth fields (at the config's initial growth) and state for ``cfg``."""
+    return ForwardModel.build(cfg, comm)

@@ -1,0 +1,327 @@
+"""The state: hyperelastic equilibrium under growth, Dirichlet data and loads.
+
+The total energy (2.8) is
+    Pi(u) = int psi(F, C_g) dX - int f . u dX - sum_k int_{Gamma_k} s0_k . u dS,
+its first variation is the residual (5.10)-(5.11) and its second the tangent
+(5.12); both come from ``ufl.derivative``.  PETSc SNES (options prefix
+``state_``) solves R(u) = 0 by Newton's method with MUMPS by default.
+
+Growth is reached by continuation: the growth applied to the body moves from
+the last equilibrium (or from C_g = I at rest) to the requested one in steps
+that double after easy Newton solves and halve after a failed one, until the
+step falls below ``solver.continuation.min_step``.  Each step starts from the
+secant extrapolation of the last two equilibria (on the half-circle bend of
+the scene-1 beam this halves the Newton iterations: 69 instead of 130).  The
+last converged state is always kept.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import dolfinx.fem
+import dolfinx.fem.petsc
+import dolfinx.la
+import numpy as np
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from .. import compat
+from ..compat import set_option
+from ..config import Config, ConfigError
+from .boundary import clamp_conditions
+from .geometry import Domain
+from .growth import Growth
+from .material import MooneyRivlin, deformation_gradient
+
+log = logging.getLogger(__name__)
+
+_INSERT, _ADD = PETSc.InsertMode.INSERT, PETSc.InsertMode.ADD
+_FORWARD, _REVERSE = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
+
+
+@dataclass
+class SolveReport:
+    """What one call of :meth:`StateProblem.solve` did."""
+
+    converged: bool = True
+    reason: str = ""
+    steps: int = 0
+    failed_steps: int = 0
+    newton_iterations: int = 0
+    reached: float = 1.0  # fraction of the requested growth change in equilibrium
+    seconds: float = 0.0
+    history: list[tuple[float, int]] = field(default_factory=list)  # (t, iterations)
+
+
+def solver_options(cfg: Config, force_scale: float) -> dict[str, object]:
+    """PETSc options of the state solver (without the ``state_`` prefix).
+
+    The absolute tolerance is ``solver.atol`` times the body's force scale, so that
+    it means the same for a beam of volume 0.002 and a square of area 16: thin bodies
+    are soft in bending (a residual of 1e-10 left displacement errors of 1e-6 on the
+    beam), while the residual of a body at rest is round-off, ~1e-16 of that scale."""
+    s = cfg.solver
+    opts: dict[str, object] = {
+        "snes_type": "newtonls",
+        "snes_linesearch_type": s.line_search,
+        "snes_max_it": s.max_newton_iterations,
+        "snes_rtol": s.rtol,
+        "snes_atol": s.atol * force_scale,
+        "snes_stol": s.stol,
+        "snes_error_if_not_converged": False,
+    }
+    if s.linear == "mumps":
+        opts.update({"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"})
+    else:
+        # The prestressed tangent is indefinite early on: CG fails, GMRES + GAMG works.
+        opts.update({"ksp_type": "gmres", "ksp_rtol": 1e-10, "ksp_max_it": 2000,
+                     "ksp_gmres_restart": 200, "pc_type": "gamg"})
+    return opts
+
+
+class StateProblem:
+    """u such that R(u; C_g) = 0, for the growth held in ``self.target``."""
+
+    prefix = "state_"
+
+    def __init__(self, domain: Domain, cfg: Config, growth: Growth):
+        self.domain, self.cfg, self.target = domain, cfg, growth
+        mesh = domain.mesh
+        self.dim = mesh.geometry.dim
+        self.V = compat.vector_space(mesh, cfg.model.degree)
+        self.u = dolfinx.fem.Function(self.V, name="displacement")
+        self.applied = growth.like()  # the growth that self.u is in equilibrium with
+        self.material = MooneyRivlin(cfg.material.mu1, cfg.material.mu2, cfg.material.lmbda)
+        self.load_scale = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
+
+        metadata = {"quadrature_degree": cfg.quadrature_degree}
+        self.dx = ufl.Measure("dx", domain=mesh, metadata=metadata)
+        self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=domain.facet_tags,
+                              metadata=metadata)
+        self.energy = self._energy()
+        self.v, du = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
+        self.residual_ufl = ufl.derivative(self.energy, self.u, self.v)
+        self.jacobian_ufl = ufl.derivative(self.residual_ufl, self.u, du)
+        self.residual_form = dolfinx.fem.form(self.residual_ufl)
+        self.jacobian_form = dolfinx.fem.form(self.jacobian_ufl)
+        self.bcs = clamp_conditions(self.V, domain, cfg.boundary.clamp)
+
+        self.A = dolfinx.fem.petsc.create_matrix(self.jacobian_form)
+        self.b = dolfinx.fem.petsc.create_vector(self.residual_form)
+        self.snes = self._create_snes()
+        self.jacobian_assemblies = 0  # the SNES's linear solver holds factors once this is > 0
+        self._at_rest = True
+        self._equilibrium: list[np.ndarray] | None = None  # growth values of the last equilibrium
+        self.initial_step_scale = 1.0  # a retry from rest may ask for smaller first steps
+        self._det_F = self._det_F_sampler(max(cfg.quadrature_degree,
+                                              cfg.objective.hausdorff.quadrature_degree))
+
+    # ---- the model -------------------------------------------------------------------------
+    def deformation_gradient(self) -> ufl.core.expr.Expr:
+        return deformation_gradient(self.u)
+
+    def _energy(self) -> ufl.Form:
+        F = self.deformation_gradient()
+        energy = self.material.energy_density(F, self.applied.tensor()) * self.dx
+        loads = self.cfg.loads
+        if any(loads.body_force):
+            f = dolfinx.fem.Constant(self.domain.mesh, np.array(loads.body_force, dtype=float))
+            energy -= self.load_scale * ufl.dot(f, self.u) * self.dx
+        for name, vec in loads.traction.items():
+            if any(vec):
+                s0 = dolfinx.fem.Constant(self.domain.mesh, np.array(vec, dtype=float))
+                energy -= self.load_scale * ufl.dot(s0, self.u) * \
+                    self.ds(self.domain.boundaries[name])
+        return energy
+
+    def first_piola(self) -> ufl.core.expr.Expr:
+        """P = dpsi/dF at the current state (dim x dim)."""
+        F = ufl.variable(self.deformation_gradient())
+        return ufl.diff(self.material.energy_density(F, self.applied.tensor()), F)
+
+    def force_scale(self) -> float:
+        """(mu1 + mu2 + lambda) |body|^((d-1)/d): a stress times a cross-section."""
+        mesh = self.domain.mesh
+        one = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
+        volume = mesh.comm.allreduce(
+            dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * ufl.dx(domain=mesh))), MPI.SUM)
+        m = self.cfg.material
+        return (m.mu1 + m.mu2 + m.lmbda) * volume ** ((self.dim - 1) / self.dim)
+
+    def _det_F_sampler(self, degree: int):
+        """det F at the quadrature points of ``degree`` on the owned cells."""
+        mesh = self.domain.mesh
+        points, _ = compat.reference_quadrature(mesh, degree)
+        expr = dolfinx.fem.Expression(ufl.det(self.deformation_gradient()), points)
+        cells = np.arange(mesh.topology.index_map(mesh.topology.dim).size_local, dtype=np.int32)
+        return lambda: expr.eval(cells)
+
+    def inverted_points(self) -> int:
+        """How many sample points of the current state have det F <= 0 (all ranks)."""
+        local = int(np.count_nonzero(~(self._det_F() > 0.0)))  # NaN counts as inverted
+        return self.domain.mesh.comm.allreduce(local, MPI.SUM)
+
+    # ---- PETSc -----------------------------------------------------------------------------
+    def _create_snes(self) -> PETSc.SNES:
+        snes = PETSc.SNES().create(self.domain.mesh.comm)
+        snes.setOptionsPrefix(self.prefix)
+        opts = PETSc.Options()
+        for key, value in solver_options(self.cfg, self.force_scale()).items():
+            opts[self.prefix + key] = value
+        user = {k: v for k, v in self.cfg.solver.petsc_options.items()
+                if k.startswith(self.prefix)}
+        for key, value in user.items():
+            set_option(opts, key, value)
+        snes.setFunction(self._assemble_residual, self.b)
+        snes.setJacobian(self._assemble_jacobian, self.A)
+        try:
+            snes.setFromOptions()
+        except PETSc.Error as err:
+            raise ConfigError([f"solver.petsc_options: PETSc rejected {sorted(user)} "
+                               f"(error code {err.ierr})"]) from None
+        if self.cfg.solver.linear == "gamg":
+            self.A.setNearNullSpace(rigid_body_modes(self.V))
+        return snes
+
+    def _assemble_residual(self, snes, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        x.ghostUpdate(addv=_INSERT, mode=_FORWARD)
+        x.copy(self.u.vector)
+        self.u.vector.ghostUpdate(addv=_INSERT, mode=_FORWARD)
+        with b.localForm() as b_local:
+            b_local.set(0.0)
+        dolfinx.fem.petsc.assemble_vector(b, self.residual_form)
+        dolfinx.fem.petsc.apply_lifting(b, [self.jacobian_form], bcs=[self.bcs], x0=[x],
+                                        scale=-1.0)
+        b.ghostUpdate(addv=_ADD, mode=_REVERSE)
+        dolfinx.fem.petsc.set_bc(b, self.bcs, x, -1.0)
+
+    def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
+        A.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(A, self.jacobian_form, bcs=self.bcs)
+        A.assemble()
+        self.jacobian_assemblies += 1
+
+    def _newton(self) -> tuple[bool, int, str]:
+        x = self.u.vector
+        try:
+            self.snes.solve(None, x)
+        except PETSc.Error as err:  # e.g. a factorisation that broke down
+            return False, self.snes.getIterationNumber(), f"PETSc error {err.ierr}"
+        reason = self.snes.getConvergedReason()
+        its = self.snes.getIterationNumber()
+        self.u.x.scatter_forward()
+        ok = self.domain.mesh.comm.allreduce(
+            bool(reason > 0 and np.isfinite(self.u.x.array).all()), MPI.LAND)
+        if not ok:
+            return False, its, _SNES_REASONS.get(reason, str(reason))
+        inverted = self.inverted_points()
+        if inverted:
+            return False, its, f"det F <= 0 at {inverted} sample points"
+        return True, its, _SNES_REASONS[reason]
+
+    # ---- continuation ----------------------------------------------------------------------
+    def adopt_equilibrium(self) -> None:
+        """Take the current ``u`` as the equilibrium of the target growth (a restored state)."""
+        self.applied.assign(self.target.values())
+        self.load_scale.value = 1.0
+        self._equilibrium = self.target.values()
+        self._at_rest = False
+
+    def reset(self) -> None:
+        """Forget the equilibrium: the next solve starts from rest."""
+        self.u.x.array[:] = 0.0
+        self._at_rest = True
+        self._equilibrium = None
+
+    def solve(self) -> SolveReport:
+        """Bring ``self.u`` into equilibrium with ``self.target``'s growth."""
+        cont = self.cfg.solver.continuation
+        report = SolveReport()
+        tic = time.perf_counter()
+        end = self.target.values()
+        if self._at_rest:
+            start, scale0 = self.target.identity_values(), 0.0
+            dt = cont.initial_step * self.initial_step_scale
+        else:
+            start, scale0, dt = self._equilibrium, 1.0, 1.0
+        # progress per load step from rest; warm re-solves (optimisation) only in --verbose
+        level = logging.INFO if self._at_rest else logging.DEBUG
+        t = 0.0
+        saved = self.u.x.array.copy()
+        previous: tuple[float, np.ndarray] | None = None  # the equilibrium before `saved`
+        while t < 1.0 - 1e-14:
+            dt = min(dt, 1.0 - t)
+            trial = t + dt
+            self.applied.assign(self.applied.blend(start, end, trial))
+            self.load_scale.value = scale0 + trial * (1.0 - scale0)
+            if previous is not None:  # secant predictor along the equilibrium path
+                t_prev, u_prev = previous
+                self.u.x.array[:] = saved + (trial - t) / (t - t_prev) * (saved - u_prev)
+            ok, its, reason = self._newton()
+            report.newton_iterations += its
+            if ok:
+                previous = (t, saved.copy())
+                t = trial
+                saved[:] = self.u.x.array
+                report.steps += 1
+                report.history.append((t, its))
+                log.log(level, "  load step %3d: t = %.4f (step %.3g), %2d Newton iterations",
+                        report.steps, t, dt, its)
+                if its <= 5:
+                    dt *= 2.0
+                continue
+            report.failed_steps += 1
+            self.u.x.array[:] = saved
+            dt /= 2.0
+            log.log(level, "  load step at t = %.4f failed (%s after %d iterations): "
+                    "step cut to %.3g", trial, reason, its, dt)
+            if dt < cont.min_step or report.steps + report.failed_steps >= cont.max_steps:
+                report.converged = False
+                report.reason = f"no equilibrium beyond {t:.4f} of the growth ({reason})"
+                break
+        # Keep the state and the growth it balances consistent, whatever happened.
+        reached = self.applied.blend(start, end, t)
+        self.applied.assign(reached)
+        self.load_scale.value = scale0 + t * (1.0 - scale0)
+        self._equilibrium = reached
+        self._at_rest = False
+        report.reached = t
+        report.seconds = time.perf_counter() - tic
+        return report
+
+
+def rigid_body_modes(V) -> PETSc.NullSpace:
+    """Translations and infinitesimal rotations, the near-nullspace for GAMG."""
+    gdim = V.mesh.geometry.dim
+    index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
+    n = index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n]
+    modes = np.zeros((6 if gdim == 3 else 3, n, bs))
+    for i in range(gdim):
+        modes[i, :, i] = 1.0
+    if gdim == 3:
+        modes[3, :, 0], modes[3, :, 1] = -x[:, 1], x[:, 0]
+        modes[4, :, 0], modes[4, :, 2] = x[:, 2], -x[:, 0]
+        modes[5, :, 2], modes[5, :, 1] = x[:, 1], -x[:, 2]
+    else:
+        modes[2, :, 0], modes[2, :, 1] = -x[:, 1], x[:, 0]
+    vecs = []
+    for mode in modes:
+        vec = dolfinx.la.create_petsc_vector(index_map, bs)
+        vec.array[:] = mode.ravel()
+        vecs.append(vec)
+    dolfinx.la.orthonormalize(vecs)
+    return PETSc.NullSpace().create(vectors=vecs)
+
+
+_SNES_REASONS = {  # PETSc's SNESConvergedReason
+    2: "converged (atol)", 3: "converged (rtol)", 4: "converged (step)", 5: "converged (its)",
+    -1: "function domain error", -2: "too many function evaluations",
+    -3: "linear solve failed", -4: "NaN residual", -5: "maximum Newton iterations",
+    -6: "line search failed", -7: "inner solve failed", -8: "local minimum",
+    -9: "diverged (dtol)", -10: "Jacobian domain error", -11: "trust region collapsed",
+}

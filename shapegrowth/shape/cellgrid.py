@@ -1,0 +1,168 @@
+"""The uniform cell grid the pair kernels walk, and nearest distances on it (numba).
+
+Sources are sorted by cell and stored as three contiguous coordinate rows with the
+CSR offsets of the cells, so a query streams through memory over the cells its
+ball reaches.  The same grid gives each query's nearest source: the shift and the
+cutoff radius of its soft minimum, and the exact Hausdorff distance.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+_FAST_MIN = {"contract", "arcp", "afn", "reassoc", "nnan", "nsz"}  # finite points: no NaN
+
+
+@dataclass
+class SourceGrid:
+    """Sources sorted by cell, with the CSR offsets of the cells."""
+
+    xyz: np.ndarray  # (3, m) sorted coordinates
+    weights: np.ndarray  # (m,) sorted weights
+    order: np.ndarray  # (m,) sorted position -> original index
+    origin: np.ndarray  # (3,)
+    cell: float
+    shape: np.ndarray  # (3,) int64
+    start: np.ndarray  # (ncells + 1,) int64
+
+    @classmethod
+    def build(cls, points: np.ndarray, weights: np.ndarray, cell: float | None) -> SourceGrid:
+        """``cell=None``: one cell holding everything (brute force)."""
+        pts = as3(points)
+        lo = pts.min(axis=0) if len(pts) else np.zeros(3)
+        hi = pts.max(axis=0) if len(pts) else np.zeros(3)
+        if cell is None or not np.isfinite(cell) or cell <= 0:
+            cell = max(float((hi - lo).max()), 1.0) * 2.0
+        shape = np.maximum(np.ceil((hi - lo) / cell).astype(np.int64), 1)
+        idx = np.minimum(((pts - lo) / cell).astype(np.int64), shape - 1)
+        flat = (idx[:, 0] * shape[1] + idx[:, 1]) * shape[2] + idx[:, 2]
+        order = np.argsort(flat, kind="stable")
+        counts = np.bincount(flat, minlength=int(np.prod(shape)))
+        start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        return cls(np.ascontiguousarray(pts[order].T), np.ascontiguousarray(weights[order]),
+                   order, lo, float(cell), shape, start)
+
+    @property
+    def ncells(self) -> int:
+        return int(np.prod(self.shape))
+
+    def locality_order(self, queries: np.ndarray) -> np.ndarray:
+        """An order of the queries by grid cell: neighbours in turn reuse cached sources."""
+        idx = np.clip(((queries - self.origin) / self.cell).astype(np.int64), 0, self.shape - 1)
+        flat = (idx[:, 0] * self.shape[1] + idx[:, 1]) * self.shape[2] + idx[:, 2]
+        return np.argsort(flat, kind="stable")
+
+
+def as3(points: np.ndarray) -> np.ndarray:
+    """Points as contiguous (n, 3) float64 (2D points get X3 = 0)."""
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.shape[1] == 3:
+        return np.ascontiguousarray(pts)
+    out = np.zeros((len(pts), 3))
+    out[:, :pts.shape[1]] = pts
+    return out
+
+
+def sample_nearest(queries: np.ndarray, sources: np.ndarray, size: int = 512) -> np.ndarray:
+    """Nearest-source distances of an evenly strided sample of the queries (brute force):
+    enough to size the grid before the exact distances are computed on it."""
+    if len(queries) == 0 or len(sources) == 0:
+        return np.zeros(0)
+    sample = np.ascontiguousarray(queries[::max(1, len(queries) // size)])
+    grid = SourceGrid.build(sources, np.ones(len(sources)), None)
+    return nearest_distance(sample, grid.xyz, grid.origin, grid.cell, grid.shape, grid.start)
+
+
+def auto_cell(sources: np.ndarray, radii: np.ndarray) -> float | None:
+    """Grid cell size for the given cutoff radii, or None when a grid would not prune."""
+    pts = as3(sources)
+    if len(pts) < 2000 or len(radii) == 0:
+        return None
+    extent = pts.max(axis=0) - pts.min(axis=0)
+    typical = float(np.median(radii))
+    if typical >= 0.5 * float(extent.max()):
+        return None  # most queries see most sources
+    # cells of 0.6 x the typical cutoff radius (value + gradient at 1e5 points: 0.35: 1.10 s,
+    # 0.45: 0.99 s, 0.6: 0.95 s, 0.8: 0.97 s; spans of ~160 sources keep the vector loops
+    # busy), but not more cells than ~ sources / 16
+    filled = extent[extent > 1e-12 * max(extent.max(), 1.0)]
+    volume = float(np.prod(filled)) if len(filled) else 1.0
+    floor = (volume / (len(pts) / 16.0)) ** (1.0 / max(len(filled), 1))
+    return max(0.6 * typical, floor)
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_range(q, radius, origin, cell, shape, k):
+    """Cells along axis k that the ball of the query reaches (clamped to the grid)."""
+    a = int(math.floor((q[k] - radius - origin[k]) / cell))
+    b = int(math.floor((q[k] + radius - origin[k]) / cell))
+    return min(max(a, 0), shape[k] - 1), min(max(b, 0), shape[k] - 1)
+
+
+@numba.njit(cache=True, inline="always")
+def _column(qx, qy, qz, radius, ix, iy, origin, cell, shape, start):
+    """Source range of column (ix, iy) within the ball of the query: empty when the
+    column's box is farther than the radius, else only the cells the ball reaches."""
+    bx = max(origin[0] + ix * cell - qx, 0.0, qx - origin[0] - (ix + 1) * cell)
+    by = max(origin[1] + iy * cell - qy, 0.0, qy - origin[1] - (iy + 1) * cell)
+    rem = radius * radius - bx * bx - by * by
+    if rem < 0.0:
+        return 0, 0
+    h = math.sqrt(rem)
+    z0 = min(max(int(math.floor((qz - h - origin[2]) / cell)), 0), shape[2] - 1)
+    z1 = min(max(int(math.floor((qz + h - origin[2]) / cell)), 0), shape[2] - 1)
+    c0 = (ix * shape[1] + iy) * shape[2]
+    return start[c0 + z0], start[c0 + z1 + 1]
+
+
+@numba.njit(cache=True, fastmath=_FAST_MIN)
+def _min_square(qx, qy, qz, xs, ys, zs):
+    best = np.inf
+    for j in range(xs.shape[0]):
+        dx = qx - xs[j]
+        dy = qy - ys[j]
+        dz = qz - zs[j]
+        best = min(best, dx * dx + dy * dy + dz * dz)
+    return best
+
+
+@numba.njit(parallel=True, cache=True)
+def nearest_distance(queries, xyz, origin, cell, shape, start):
+    """Distance from each query to its nearest source: the ball around the query doubles
+    from one cell until it holds a source no farther than its radius."""
+    n = queries.shape[0]
+    out = np.empty(n)
+    xs, ys, zs = xyz[0], xyz[1], xyz[2]
+    reach = cell * math.sqrt(float(shape[0] ** 2 + shape[1] ** 2 + shape[2] ** 2))
+    for i in numba.prange(n):
+        qx, qy, qz = queries[i, 0], queries[i, 1], queries[i, 2]
+        rho = cell
+        best = np.inf
+        while True:
+            x0, x1 = _cell_range(queries[i], rho, origin, cell, shape, 0)
+            y0, y1 = _cell_range(queries[i], rho, origin, cell, shape, 1)
+            for ix in range(x0, x1 + 1):
+                for iy in range(y0, y1 + 1):
+                    j0, j1 = _column(qx, qy, qz, rho, ix, iy, origin, cell, shape, start)
+                    best = min(best, _min_square(qx, qy, qz, xs[j0:j1], ys[j0:j1], zs[j0:j1]))
+            if best <= rho * rho or rho > 2.0 * reach + _distance_to_box(queries[i], origin,
+                                                                          cell, shape):
+                break
+            rho *= 2.0
+        out[i] = math.sqrt(best)
+    return out
+
+
+@numba.njit(cache=True, inline="always")
+def _distance_to_box(q, origin, cell, shape):
+    d = 0.0
+    for k in range(3):
+        lo = origin[k]
+        hi = origin[k] + shape[k] * cell
+        e = max(lo - q[k], 0.0, q[k] - hi)
+        d += e * e
+    return math.sqrt(d)

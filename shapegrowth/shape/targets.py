@@ -1,0 +1,91 @@
+"""The target shape as a weighted point cloud.
+
+* ``target: {map: [...]}``: the points Phi_d(X_q) at the body's reference
+  quadrature points with the weights w_q |det grad Phi_d(X_q)|, the target's own
+  volume measure (``target.weights: volume``): a body that takes the target shape
+  then has exactly the target's cloud, points and weights.  Where det grad Phi_d = 0
+  (the targets of scenes 2 and 5 do not depend on one coordinate and have no volume)
+  that measure vanishes, and the push-forward of the reference measure (weights w_q)
+  is used there; ``target.weights: pushforward`` uses it everywhere.
+* ``target: {mesh: file}``: the quadrature points of the target mesh's cells with
+  their physical weights (gmsh .msh through gmsh; other formats through meshio
+  when it is installed).  Each rank takes a contiguous share of the cells.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from .. import compat
+from ..config import Config, ConfigError
+from ..config.expressions import evaluate
+from ..config.maps import map_jacobian
+from .clouds import QuadratureCloud
+from .hausdorff import PointCloud
+
+
+def target_cloud(cfg: Config, cloud: QuadratureCloud, comm: MPI.Comm) -> PointCloud:
+    target = cfg.target
+    if target is None:
+        raise ConfigError(["target: required for this command (give map: or mesh:)"])
+    if target.map is not None:
+        X = np.zeros((3, len(cloud)))
+        X[:cloud.gdim] = cloud.X.T
+        params, axis = cfg.expression_params, cfg.cylinder_axis
+        points = np.column_stack([evaluate(e, X, params, axis) for e in target.map])
+        if not np.isfinite(points).all():
+            raise ConfigError(["target.map: the map is not finite everywhere on the body"])
+        return PointCloud(points, cloud.w * map_jacobian(cfg, X, target.weights))
+    return mesh_cloud(Path(target.mesh), cfg.dim, cloud.degree, comm)
+
+
+def mesh_cloud(path: Path, dim: int, degree: int, comm: MPI.Comm) -> PointCloud:
+    """Quadrature points and weights of the dim-dimensional simplices of a mesh file."""
+    nodes, cells = _read_simplices(path, dim)
+    lo, hi = (len(cells) * comm.rank) // comm.size, (len(cells) * (comm.rank + 1)) // comm.size
+    cells = cells[lo:hi]
+    ref_points, ref_weights = compat.simplex_quadrature(dim, degree)
+    v0 = nodes[cells[:, 0]]
+    jac = np.stack([nodes[cells[:, k + 1]] - v0 for k in range(dim)], axis=2)  # (n, dim, dim)
+    points = v0[:, None, :] + np.einsum("cij,qj->cqi", jac, ref_points)
+    weights = np.abs(np.linalg.det(jac))[:, None] * ref_weights[None, :]
+    return PointCloud(points.reshape(-1, dim), weights.ravel())
+
+
+def _read_simplices(path: Path, dim: int) -> tuple[np.ndarray, np.ndarray]:
+    if not path.is_file():
+        raise ConfigError([f"target.mesh: file '{path}' not found"])
+    if path.suffix == ".msh":
+        import gmsh
+
+        gmsh.initialize()
+        try:
+            gmsh.option.setNumber("General.Terminal", 0)
+            gmsh.merge(str(path))
+            tags, coords, _ = gmsh.model.mesh.getNodes()
+            index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+            index[tags.astype(np.int64)] = np.arange(len(tags))
+            gmsh_type = 4 if dim == 3 else 2  # linear tetrahedra / triangles
+            _, node_tags = gmsh.model.mesh.getElementsByType(gmsh_type)
+        finally:
+            gmsh.finalize()
+        nodes = coords.reshape(-1, 3)[:, :dim]
+        cells = index[node_tags.astype(np.int64)].reshape(-1, dim + 1)
+    else:
+        try:
+            import meshio
+        except ImportError:
+            raise ConfigError([f"target.mesh: '{path.suffix}' files need meshio "
+                               "(pip install meshio), or give a gmsh .msh file"]) from None
+        mesh = meshio.read(path)
+        kind = "tetra" if dim == 3 else "triangle"
+        blocks = [c.data for c in mesh.cells if c.type == kind]
+        if not blocks:
+            raise ConfigError([f"target.mesh: '{path}' holds no {kind} cells"])
+        nodes, cells = mesh.points[:, :dim], np.concatenate(blocks)
+    if len(cells) == 0:
+        raise ConfigError([f"target.mesh: '{path}' holds no {dim}D simplices"])
+    return np.ascontiguousarray(nodes, dtype=float), cells.astype(np.int64)
