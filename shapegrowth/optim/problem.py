@@ -104,11 +104,16 @@ class ReducedFunctional:
     def evaluate(self, m: np.ndarray, gradient: bool = True) -> Evaluation:
         m = np.ascontiguousarray(m, dtype=float)
         key = m.tobytes()
-        if key == self._key and self._last is not None and (
-                self._last.gradient is not None or not gradient):
+        # m is this rank's share: a design may change on one rank and not on another (the
+        # first evaluation of an alpha stage at the best design of the last one: the ranks
+        # disagreed and deadlocked in different collectives).  Every cache decision is
+        # taken by all ranks together.
+        same = self.comm.allreduce(key == self._key, MPI.LAND)
+        if same and self.comm.allreduce(self._last is not None and (
+                self._last.gradient is not None or not gradient), MPI.LAND):
             return self._last
         state = self.model.state
-        if key != self._key or self._report is None:
+        if not same or not self.comm.allreduce(self._report is not None, MPI.LAND):
             self._apply(m)
             with self.timer("forward"):
                 report = state.solve()
