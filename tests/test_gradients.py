@@ -128,8 +128,8 @@ def test_a_design_changed_on_one_rank_only_is_solved_on_every_rank(shared_tmp):
     A design changed on the last rank only (as the best design of one alpha stage, taken up
     by the next) is a new design on every rank: all of them solve it (the ranks once
     disagreed and hung in different collectives), and J is that of a fresh evaluation."""
-    from shapegrowth.forward import ForwardModel
-    from shapegrowth.problem import ReducedFunctional
+    from shapegrowth.optim.problem import ReducedFunctional
+    from shapegrowth.physics.model import ForwardModel
 
     comm = MPI.COMM_WORLD
     cfg = load(BEAM, [f"mesh.cache_dir={shared_tmp}"])
