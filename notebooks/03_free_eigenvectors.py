@@ -21,7 +21,7 @@
 # growth can turn to round the corners off. The paper reports the free frame 13.9 times
 # better in $\rho_H$ at convergence.
 #
-# A coarse mesh and 80 SLSQP iterations here (`configs/square_circle_*.yaml` are the full
+# A coarse mesh and 80 L-BFGS iterations here (`configs/square_circle_*.yaml` are the full
 # runs), so the ratio printed below is that of two short runs, not of two optima. Both
 # start from the target map's own metric $C_d = \nabla\Phi_d^T \nabla\Phi_d$ seen through
 # their frame (`growth.start: target`): the fixed frame keeps its diagonal, the free frame

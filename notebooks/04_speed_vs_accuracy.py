@@ -20,7 +20,7 @@
 # discretisation (by default the finest one of the sweep): the optimal growth is
 # interpolated onto it, the state is solved there, and the exact Hausdorff distance to
 # the target is measured. Here, a small grid on the beam of scene 1:
-# mesh size $\times$ displacement degree, 25 SLSQP iterations each.
+# mesh size $\times$ displacement degree, 25 L-BFGS iterations each.
 #
 # The same from the shell:
 # `shapegrowth study configs/beam_wave.yaml --sweep mesh.size=0.2,0.1 --sweep model.degree=1,2`.
