@@ -105,6 +105,7 @@ def test_the_flat_api_resolves_and_import_has_no_side_effects():
             "assert dict(os.environ) == env; "
             "assert not logging.getLogger('shapegrowth').handlers; "
             "[getattr(shapegrowth, n) for n in shapegrowth.__all__]; "
+            "assert set(shapegrowth.__all__) == {'__version__', *shapegrowth._API}; "
             "assert shapegrowth.load_config.__module__ == 'shapegrowth.config.loading'")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=ROOT)

@@ -384,10 +384,11 @@ class Optimizer:
                     # stage is over; its best design is kept.
                     log.warning("NLopt stopped: its line search found no further decrease "
                                 "(round-off); the best design so far is kept")
-                    return (self.best[1] if self.best is not None else x), \
-                        nlopt.ROUNDOFF_LIMITED
-                self._over_budget = False
-                return (self.best[1] if self.best is not None else x), nlopt.MAXEVAL_REACHED
+                    code = nlopt.ROUNDOFF_LIMITED
+                else:
+                    self._over_budget = False
+                    code = nlopt.MAXEVAL_REACHED
+                return (self.best[1] if self.best is not None else x), code
             at_box = limit > 0 and np.any(((x <= box_lo) & (box_lo > lo))
                                           | ((x >= box_hi) & (box_hi < hi)))
             if code != nlopt.MAXEVAL_REACHED and not at_box:

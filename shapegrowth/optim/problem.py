@@ -106,14 +106,14 @@ class ReducedFunctional:
         key = m.tobytes()
         # m is this rank's share: a design may change on one rank and not on another (the
         # first evaluation of an alpha stage at the best design of the last one: the ranks
-        # disagreed and deadlocked in different collectives).  Every cache decision is
-        # taken by all ranks together.
+        # disagreed and deadlocked in different collectives).  Whether it is the cached
+        # design is decided by all ranks together; the cache itself is set collectively.
         same = self.comm.allreduce(key == self._key, MPI.LAND)
-        if same and self.comm.allreduce(self._last is not None and (
-                self._last.gradient is not None or not gradient), MPI.LAND):
+        if same and self._last is not None and (
+                self._last.gradient is not None or not gradient):
             return self._last
         state = self.model.state
-        if not same or not self.comm.allreduce(self._report is not None, MPI.LAND):
+        if not same or self._report is None:
             self._apply(m)
             with self.timer("forward"):
                 report = state.solve()

@@ -24,6 +24,8 @@ import itertools
 
 import numpy as np
 
+from .closed_forms import rodrigues_vectors
+
 NEIGHBOURS = 8  # nearest-neighbour graph of the nodes: enough to connect P1/P2 node sets
 
 # The 24 proper signed permutation matrices P (V -> V P keeps V a rotation when det P = 1).
@@ -34,14 +36,10 @@ _SIGNED_PERMUTATIONS = np.array([
 
 
 def rodrigues_matrix(t1: np.ndarray, t2: np.ndarray, t3: np.ndarray) -> np.ndarray:
-    """V (n, 3, 3) of (5.3): I - sin t3 K + (1 - cos t3) K K with k(t1, t2) of (5.4)."""
-    k = np.stack([np.cos(t1) * np.sin(t2), np.sin(t1) * np.sin(t2), np.cos(t2)], axis=1)
-    K = np.zeros((len(k), 3, 3))
-    K[:, 0, 1], K[:, 0, 2] = k[:, 2], -k[:, 1]
-    K[:, 1, 0], K[:, 1, 2] = -k[:, 2], k[:, 0]
-    K[:, 2, 0], K[:, 2, 1] = k[:, 1], -k[:, 0]
-    return (np.eye(3) - np.sin(t3)[:, None, None] * K
-            + (1 - np.cos(t3))[:, None, None] * K @ K)
+    """V (n, 3, 3) of (5.3) with k(t1, t2) of (5.4), its columns v1, v2, v3, at n points:
+    the closed form (5.5) of closed_forms.py, evaluated on arrays."""
+    rows = rodrigues_vectors(np.asarray(t1), np.asarray(t2), np.asarray(t3))  # (3, 3, n)
+    return np.moveaxis(rows, -1, 0).transpose(0, 2, 1)
 
 
 def rodrigues_angles(V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

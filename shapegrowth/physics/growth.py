@@ -167,13 +167,11 @@ class Growth:
             a_lo, a_hi = cfg.growth.angles.bounds[i]
             f.x.array[:owned] = np.clip(ang_own[:, i], a_lo, a_hi)
             f.x.scatter_forward()
-        out = []
-        for i in range(3):
-            scratch = dolfinx.fem.Function(self.space)
-            scratch.x.array[:owned] = lam_own[:, i]
-            scratch.x.scatter_forward()
-            out.append(scratch.x.array.copy())
-        return out
+        # the eigenvalue fields carry the values to the ghosts; the caller clips them
+        for i, f in enumerate(self.eigenvalues):
+            f.x.array[:owned] = lam_own[:, i]
+            f.x.scatter_forward()
+        return [f.x.array.copy() for f in self.eigenvalues]
 
     def _frame_values(self) -> list[np.ndarray]:
         """The frame's v_i at the growth nodes, each (n, dim)."""
