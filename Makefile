@@ -45,9 +45,11 @@ bend: setup
 test: setup
 	@$(MAKE) --no-print-directory lint test-serial test-mpi notebooks
 
-# ruff on the package, its tests, scripts, benchmarks and notebook sources (pyproject.toml)
+# ruff on the package, its tests, scripts, benchmarks and notebook sources, and mypy on the
+# package (both configured in pyproject.toml)
 lint:
 	$(BIN)/ruff check shapegrowth tests scripts benchmarks notebooks
+	$(BIN)/mypy
 
 test-serial:
 	$(BIN)/python -m pytest -q tests

@@ -46,10 +46,11 @@ def main() -> int:
     for _ in range(args.repeats):
         ksp = PETSc.KSP().create(comm)
         ksp.setOperators(A)
-        ksp.setOptionsPrefix(state.prefix)  # the state's own linear solver and its options
-        ksp.setFromOptions()
+        ksp.setOptionsPrefix(state.options.prefix)  # the state's linear solver and options
         x = b.duplicate()
-        ksp.solve(b, x)
+        with state.options.pushed():
+            ksp.setFromOptions()
+            ksp.solve(b, x)
         solutions.append(x.array.copy())
         ksp_name = f"{ksp.getType()}/{ksp.getPC().getType()} ({ksp.getPC().getFactorSolverType()})"
         ksp.destroy()

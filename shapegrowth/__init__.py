@@ -35,6 +35,12 @@ _API = {
     "Objective": ("shapegrowth.optim.objective", "Objective"),
     "ReducedFunctional": ("shapegrowth.optim.problem", "ReducedFunctional"),
     "taylor_test": ("shapegrowth.optim.verification", "taylor_test"),
+    "Driver": ("shapegrowth.optim.driver", "Driver"),
+    "DriverSettings": ("shapegrowth.optim.driver", "DriverSettings"),
+    "Callback": ("shapegrowth.optim.driver", "Callback"),
+    "Status": ("shapegrowth.status", "Status"),
+    "Outcome": ("shapegrowth.status", "Outcome"),
+    "RunSummary": ("shapegrowth.io.summary", "RunSummary"),
     "optimize": ("shapegrowth.commands.run", "run_optimization"),
     "solve": ("shapegrowth.commands.solve", "solve_forward"),
     "Sweep": ("shapegrowth.commands.study", "Sweep"),
@@ -59,6 +65,12 @@ __all__ = [
     "Objective",
     "ReducedFunctional",
     "taylor_test",
+    "Driver",
+    "DriverSettings",
+    "Callback",
+    "Status",
+    "Outcome",
+    "RunSummary",
     "optimize",
     "solve",
     "Sweep",
@@ -78,6 +90,8 @@ if TYPE_CHECKING:
     from .config import from_dict as config_from_dict
     from .config import load as load_config
     from .io.plotting import draw, surface
+    from .io.summary import RunSummary
+    from .optim.driver import Callback, Driver, DriverSettings
     from .optim.objective import Objective
     from .optim.problem import ReducedFunctional
     from .optim.verification import taylor_test
@@ -85,6 +99,7 @@ if TYPE_CHECKING:
     from .physics.model import ForwardModel, build_model
     from .physics.state import StateProblem
     from .shape.hausdorff import PointCloud, SmoothHausdorff
+    from .status import Outcome, Status
 
 
 def __getattr__(name: str) -> Any:

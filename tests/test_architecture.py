@@ -1,13 +1,14 @@
 """The package's layers: every import points downwards, nothing imports in a circle, the flat
 API resolves, and ``import shapegrowth`` has no side effects.
 
-Layers, bottom to top: base modules (compat, logs, timing, version) < config < physics and
+Layers, bottom to top: base modules (compat, logs, status, timing, version) < config < physics and
 shape (side by side, neither imports the other) < optim < io < commands < the package root.
 """
 
 from __future__ import annotations
 
 import ast
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -16,7 +17,7 @@ import pytest
 from conftest import ROOT
 
 PACKAGE = ROOT / "shapegrowth"
-LAYERS = {"compat": 0, "logs": 0, "timing": 0, "version": 0, "config": 1, "physics": 2,
+LAYERS = {"compat": 0, "logs": 0, "status": 0, "timing": 0, "version": 0, "config": 1, "physics": 2,
           "shape": 2, "optim": 3, "io": 4, "commands": 5, "": 6, "__main__": 6}
 
 
@@ -63,7 +64,7 @@ def _layer(module: str) -> int:
 
 
 MODULES = _modules()
-LAYERS_BASE = {"compat", "logs", "timing", "version", "__main__"}
+LAYERS_BASE = {"compat", "logs", "status", "timing", "version", "__main__"}
 GRAPH = {name: _imports(name, path) for name, path in MODULES.items()}
 
 
@@ -110,3 +111,22 @@ def test_the_flat_api_resolves_and_import_has_no_side_effects():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=ROOT)
     assert done.returncode == 0, done.stderr
+
+
+def test_importing_every_module_under_mpi_changes_nothing():
+    """Under ``mpirun -n 2`` (where the package does set threads, at first use), importing
+    every module leaves the environment, numba's thread count and the package logger as
+    they were."""
+    modules = sorted(m for m in MODULES if m and m != "__main__")
+    code = ("import logging, os, numba; env = dict(os.environ); n = numba.get_num_threads(); "
+            f"import importlib; [importlib.import_module('shapegrowth.' + m) for m in {modules}]; "
+            "assert dict(os.environ) == env, 'environment'; "
+            "assert numba.get_num_threads() == n, 'numba threads'; "
+            "assert not logging.getLogger('shapegrowth').handlers, 'handlers'")
+    # unbound ranks: bound to one core each, numba would start with one thread anyway
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMPI_MCA_hwloc_base_binding_policy="none")
+    env.pop("NUMBA_NUM_THREADS", None)
+    done = subprocess.run(["mpirun", "-n", "2", sys.executable, "-c", code],
+                          capture_output=True, text=True, cwd=ROOT, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]

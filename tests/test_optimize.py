@@ -224,9 +224,9 @@ def test_nlopts_own_failure_ends_the_stage_with_its_best_design(tmp_path, monkey
     """NLopt's L-BFGS reports a line search that finds no decrease as a generic
     RuntimeError ("nlopt failure", disk_cone at iteration 80): the run keeps its best design,
     ends converged and loses nothing.  Here the failure is raised at the 4th evaluation."""
-    from shapegrowth.optim.optimize import Optimizer
+    from shapegrowth.optim.driver import Driver
 
-    real = Optimizer._objective
+    real = Driver._objective
     calls = {"n": 0}
 
     def fails(self, x, grad):
@@ -235,7 +235,7 @@ def test_nlopts_own_failure_ends_the_stage_with_its_best_design(tmp_path, monkey
             raise RuntimeError("nlopt failure")
         return real(self, x, grad)
 
-    monkeypatch.setattr(Optimizer, "_objective", fails)
+    monkeypatch.setattr(Driver, "_objective", fails)
     code = run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=8")
     s = read_json(tmp_path / "summary.json")
     assert code == 0 and s["status"] == "converged" and s["iterations"] == 3

@@ -71,8 +71,8 @@ def _reference_newton_seconds(model: ForwardModel, iterations: int = 3) -> float
     x = st.u.vector
     tic = time.perf_counter()
     for _ in range(iterations):
-        st._assemble_residual(None, x, b)
-        st._assemble_jacobian(None, x, A, A)
+        st.assemble_residual(x, b)
+        st.assemble_tangent(x, A)
         ksp.setOperators(A)
         ksp.solve(b, du)
         x.axpy(-1.0, du)

@@ -129,7 +129,7 @@ def _gradcheck(cfg, args) -> int:
 
 
 def _run(cfg, args) -> int:
-    from ..optim.optimize import ResumeError
+    from ..io.checkpoint import ResumeError
     from .run import run_optimization
 
     try:
@@ -143,6 +143,7 @@ def _run(cfg, args) -> int:
 
 def _study(cfg, args) -> int:
     from ..config import ConfigError, load
+    from ..status import Outcome
     from .study import Sweep, run_study
 
     if not args.sweep:
@@ -159,7 +160,7 @@ def _study(cfg, args) -> int:
         raise ConfigError(errors)
     out = args.out or cfg.output_dir
     rows = run_study(Path(args.config), args.overrides, sweeps, out, args.reference)
-    failed = [r for r in rows if str(r["status"]).startswith("failed")]
+    failed = [r for r in rows if Outcome.parse(str(r["status"])).is_failure]
     log.info("wrote %s and %s (%d points, %d failed)", out / "study.csv", out / "study.png",
              len(rows), len(failed))
     return EXIT_FAILED if failed else EXIT_OK

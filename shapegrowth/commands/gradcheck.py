@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import Config
+from ..config import Config, resolved
 from ..io import files as io
 from ..optim.problem import ReducedFunctional
 from ..optim.verification import smooth_direction, taylor_test
@@ -24,7 +24,7 @@ def gradcheck(cfg: Config, out: Path, seed: int = 0, eps0: float = 1e-2, steps: 
     lo, hi = body_box(model.domain.mesh)
     length = float((hi - lo).max())
     coords = rf.design_coordinates()
-    n_eig = len(cfg.growth.eigenvalues.design) * rf.n_owned
+    n_eig = len(resolved(cfg.growth.eigenvalues.design)) * rf.n_owned
     h = np.empty_like(m0)
     h[:n_eig] = 0.2 * np.abs(m0[:n_eig]) * smooth_direction(coords[:n_eig], seed, length)
     h[n_eig:] = 0.3 * smooth_direction(coords[n_eig:], seed + 1, length)

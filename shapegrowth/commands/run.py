@@ -12,12 +12,13 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from .. import compat
 from ..io import files as io
+from ..io.checkpoint import CheckpointFile
 from ..io.plotting import write_frame_png, write_shape_png
-from ..optim.optimize import Optimizer
+from ..io.summary import Dofs, OptimizationMeasures, RunSummary
+from ..optim.driver import Driver, DriverSettings, ProgressLog, RetryFromRest
 from ..optim.problem import ReducedFunctional, StateSolveError
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
@@ -29,7 +30,7 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class RunResult:
-    summary: dict[str, Any]
+    summary: RunSummary
     exit_status: int  # 0, or 1 for a failed run
     model: ForwardModel  # left at the best design
 
@@ -40,34 +41,40 @@ def _from_rest(model: ForwardModel, rf: ReducedFunctional):
     path; a thin body can have several, and the one reached from rest is what growing the
     body with this growth does.  The optimiser's state is put back afterwards."""
     state = model.state
-    kept = state.u.x.array.copy()
+    kept = state.snapshot()
     state.reset()
     try:
         report = state.solve()
         value = rf.objective.evaluate(gradient=False)[0] if report.converged else None
     finally:
-        state.u.x.array[:] = kept
-        state.adopt_equilibrium()
+        state.restore(kept)
     if value is None:
         log.warning("the best growth could not be solved from rest: %s", report.reason)
     return value
 
 
 def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
+    """Optimise ``cfg``'s growth and write every output to ``out`` (module doc).  The
+    chain: the model, its reduced functional J(m), NLopt on J with the checkpoint, the
+    retry from rest and the progress log as callbacks."""
     timer = Timer()
     with timer("forward"):
         model = ForwardModel.build(cfg)
     rf = ReducedFunctional(model, timer)
-    optimizer = Optimizer(rf, out, resume=resume)
-    status, best = optimizer.run()
-    history = optimizer.history
+    callbacks = [ProgressLog(), CheckpointFile(out / "checkpoint.h5", rf,
+                                               cfg.output.checkpoint_every, resume, timer),
+                 RetryFromRest(rf)]
+    driver = Driver(rf, DriverSettings.from_config(cfg), callbacks)
+    result = driver.run()
+    timer.totals["optimizer"] += result.optimizer_seconds
+    status, history = result.outcome, result.history
     # leave the state at the best design for the fields and the final numbers
     final = None
-    failed = status.startswith("failed")
+    failed = status.is_failure
     if failed:
         rf.restart_from_rest()  # not a warm start from the state that failed
     try:
-        final = rf.evaluate(optimizer.vec.local(best), gradient=False)
+        final = rf.evaluate(driver.vec.local(result.best), gradient=False)
     except StateSolveError as err:
         log.warning("could not re-solve the best design: %s", err)
     with timer("io"):
@@ -84,29 +91,29 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     # a failed run's final state was already solved from rest
     from_rest = (final.value if failed else _from_rest(model, rf)) if final else None
     report = final.report if final else SolveReport(converged=False, reason="no state")
-    summary = base_summary(cfg, model, report, status, timer)
     first = history[0] if history else None
     # with rho_H at the best design; without a state there, from the clouds as they are
     exact = final.value.hausdorff if final else rf.objective.exact_hausdorff()
-    summary.update({
-        "iterations": len(history),
-        "objective_initial": first.objective if first else None,
-        "objective_final": final.value.total if final else None,
-        "rho_H_initial": first.rho_H if first else None,
-        "rho_H_final": final.value.rho_H if final else None,
-        "hausdorff_initial": first.hausdorff if first else None,
-        "hausdorff_final": exact,
-        "target_size": rf.objective.target_size,
-        "newton_iterations_total": sum(r.newton_iterations for r in history),
-        "dofs": {"state": compat.global_size(model.state.V), "design": optimizer.vec.size},
-        "evaluations": rf.evaluations,
-        "residual_strain": model.residual_strain_norm(),
-        # the best growth applied to the body at rest: the shape a body grown so would take
-        "rho_H_from_rest": from_rest.rho_H if from_rest else None,
-        "hausdorff_from_rest": from_rest.hausdorff if from_rest else None,
-        "resumed": resume,
-    })
-    io.write_json(out / "summary.json", summary)
+    summary = base_summary(
+        cfg, model, report, status, timer,
+        iterations=len(history),
+        objective_initial=first.objective if first else None,
+        objective_final=final.value.total if final else None,
+        rho_H_initial=first.rho_H if first else None,
+        rho_H_final=final.value.rho_H if final else None,
+        hausdorff_initial=first.hausdorff if first else None,
+        hausdorff_final=exact,
+        target_size=rf.objective.target_size,
+        newton_iterations_total=sum(r.newton_iterations for r in history),
+        dofs=Dofs(compat.global_size(model.state.V), driver.vec.size),
+        optimization=OptimizationMeasures(
+            evaluations=rf.evaluations,
+            residual_strain=model.residual_strain_norm(),
+            # the best growth applied to the body at rest: the shape a body grown so takes
+            rho_H_from_rest=from_rest.rho_H if from_rest else None,
+            hausdorff_from_rest=from_rest.hausdorff if from_rest else None,
+            resumed=resume))
+    io.write_json(out / "summary.json", summary.to_json())
     rel = exact / rf.objective.target_size
     if from_rest and abs(from_rest.hausdorff - exact) > max(0.05 * exact,
                                                             1e-3 * rf.objective.target_size):
@@ -116,11 +123,10 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
                     100 * from_rest.hausdorff / rf.objective.target_size, exact)
     log.info("%s after %d iterations: rho_H %.4g -> %.4g, Hausdorff distance %.4g "
              "(%.3g %% of the target size)", status, len(history),
-             summary["rho_H_initial"] or float("nan"), summary["rho_H_final"] or float("nan"),
+             summary.rho_H_initial or float("nan"), summary.rho_H_final or float("nan"),
              exact, 100 * rel)
     log.info("results in %s: summary.json, history.csv, history.png, shape.png, fields.xdmf",
              out)
     log.info("view: paraview %s, Filters > Warp By Vector (displacement), colour by lambda_hat_1",
              out / "fields.xdmf")
     return RunResult(summary, 1 if failed else 0, model)
-

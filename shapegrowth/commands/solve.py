@@ -12,8 +12,10 @@ import numpy as np
 from .. import compat
 from ..config import Config
 from ..io import files as io
+from ..io.summary import Dofs, Probe, RunSummary, SolveMeasures
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
+from ..status import Outcome
 from ..timing import Timer
 from ..version import __version__
 
@@ -39,7 +41,7 @@ def parse_probes(texts: list[str], dim: int) -> np.ndarray:
 
 
 def solve_forward(cfg: Config, out: Path,
-                  probe_texts: list[str] = ()) -> tuple[dict[str, Any], int]:
+                  probe_texts: list[str] | tuple[str, ...] = ()) -> tuple[RunSummary, int]:
     """Forward solve with the config's initial growth; returns (summary, exit status)."""
     timer = Timer()
     probes = parse_probes(list(probe_texts), cfg.dim)
@@ -54,12 +56,12 @@ def solve_forward(cfg: Config, out: Path,
              compat.global_size(model.state.V), cfg.growth.frame)
     with timer("forward"):
         report = model.state.solve()
-    status = "converged" if report.converged else f"failed: {report.reason}"
+    status = Outcome.converged() if report.converged else Outcome.failed(report.reason)
     log.info("%s after %d load steps, %d Newton iterations (%.2f s)", status, report.steps,
              report.newton_iterations, report.seconds)
 
     vol_ref, vol_def = model.volumes()
-    shape = {}
+    shape: dict[str, Any] = {}
     if cfg.target is not None:
         from ..optim.objective import Objective
 
@@ -80,16 +82,13 @@ def solve_forward(cfg: Config, out: Path,
     with timer("io"):
         io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
                         extra=[model.residual_strain_field()])
-    summary = base_summary(cfg, model, report, status, timer)
-    summary.update(shape)
-    summary.update({
-        "volume_reference": vol_ref,
-        "volume_deformed": vol_def,
-        "stress_l2": model.stress_norm(),
-        "residual_strain": model.residual_strain_norm(),
-        "probes": [{"reference": p[:cfg.dim], "deformed": d} for p, d in zip(probes, deformed)],
-    })
-    io.write_json(out / "summary.json", summary)
+    measures = SolveMeasures(
+        volume_reference=vol_ref, volume_deformed=vol_def, stress_l2=model.stress_norm(),
+        residual_strain=model.residual_strain_norm(),
+        probes=tuple(Probe(tuple(map(float, p[:cfg.dim])), tuple(map(float, d)))
+                     for p, d in zip(probes, deformed)))
+    summary = base_summary(cfg, model, report, status, timer, solve=measures, **shape)
+    io.write_json(out / "summary.json", summary.to_json())
     for p, d in zip(probes, deformed):
         log.info("probe X = (%s) -> Phi(X) = (%s)", ", ".join(f"{v:.6g}" for v in p[:cfg.dim]),
                  ", ".join(f"{v:.6g}" for v in d))
@@ -99,9 +98,11 @@ def solve_forward(cfg: Config, out: Path,
     return summary, 0 if report.converged else 1
 
 
-def base_summary(cfg: Config, model: ForwardModel, report: SolveReport, status: str,
-             timer: Timer) -> dict[str, Any]:
-    return {
+def base_summary(cfg: Config, model: ForwardModel, report: SolveReport, status: Outcome,
+                 timer: Timer, **measured: Any) -> RunSummary:
+    """The summary's common keys for ``model`` after ``report``; ``measured`` sets or
+    overrides any of :class:`RunSummary`'s fields."""
+    values: dict[str, Any] = {
         "name": cfg.name,
         "status": status,
         "iterations": 0,
@@ -118,10 +119,12 @@ def base_summary(cfg: Config, model: ForwardModel, report: SolveReport, status: 
         "continuation_steps": report.steps,
         "failed_steps": report.failed_steps,
         "growth_reached": report.reached,
-        "dofs": {"state": compat.global_size(model.state.V), "design": model.design_dofs()},
+        "dofs": Dofs(compat.global_size(model.state.V), model.design_dofs()),
         "mpi_size": model.comm.size,
         "version": __version__,
         "dolfinx_version": compat.DOLFINX_VERSION,
         "mesh": str(model.domain.path),
         "config": cfg.to_dict(),
     }
+    values.update(measured)
+    return RunSummary(**values)

@@ -142,16 +142,16 @@ def run_study(config: Path, overrides: list[str], sweeps: list[Sweep], out: Path
         judged = evaluate_on_reference(result.model, reference)
         s = result.summary
         row = {"point": point, **point,
-               "dofs_state": s["dofs"]["state"], "dofs_design": s["dofs"]["design"],
-               "iterations": s["iterations"], "wall_time_s": wall,
-               "rho_H_final": s["rho_H_final"], "hausdorff_final": s["hausdorff_final"],
-               **judged, "peak_memory_mb": peak, "target_size": s["target_size"],
-               "status": s["status"], "resumed": resume}
+               "dofs_state": s.dofs.state, "dofs_design": s.dofs.design,
+               "iterations": s.iterations, "wall_time_s": wall,
+               "rho_H_final": s.rho_H_final, "hausdorff_final": s.hausdorff_final,
+               **judged, "peak_memory_mb": peak, "target_size": s.target_size,
+               "status": str(s.status), "resumed": resume}
         row["relative_error_reference"] = row["hausdorff_reference"] / row["target_size"]
         io.write_json(done, row, comm)
         log.info("  %s: %d iterations, %.1f s, Hausdorff %.4g here, %.4g on the reference "
-                 "(%.3g %% of the target size)", s["status"], s["iterations"], wall,
-                 s["hausdorff_final"], row["hausdorff_reference"],
+                 "(%.3g %% of the target size)", s.status, s.iterations, wall,
+                 s.hausdorff_final, row["hausdorff_reference"],
                  100 * row["relative_error_reference"])
         rows.append(row)
     write_study(out, [s.key for s in sweeps], rows, comm)

@@ -1,8 +1,10 @@
-"""The config layer: typed sections (sections.py), their schema (schema.py), loading with
-overrides (loading.py), cross-field checks (checks.py), expressions (expressions.py) and
-the target map's derivatives (maps.py).  ``from shapegrowth.config import load, Config``."""
+"""The config layer: typed sections (sections.py), their schema (schema.py), cross-field
+checks (checks.py), the whole :class:`Config`, valid by construction (root.py), loading with
+overrides (loading.py), expressions (expressions.py) and the target map's derivatives
+(maps.py).  ``from shapegrowth.config import load, Config``."""
 
 from .loading import apply_overrides, from_dict, load, reference_text
+from .root import Config
 from .sections import (
                        BOUNDARIES,
                        FRAMES,
@@ -13,7 +15,6 @@ from .sections import (
                        AnglesConfig,
                        BoundaryConfig,
                        ComplexityConfig,
-                       Config,
                        ConfigError,
                        ContinuationConfig,
                        EigenvaluesConfig,
@@ -30,6 +31,7 @@ from .sections import (
                        Scalar,
                        SolverConfig,
                        TargetConfig,
+                       resolved,
 )
 
 __all__ = [
@@ -44,6 +46,7 @@ __all__ = [
     "PAPER_ANGLE_BOUNDS_3D",
     "PAPER_ANGLE_BOUNDS_2D",
     "Scalar",
+    "resolved",
     "ConfigError",
     "GeometryConfig",
     "MeshConfig",

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .expressions import CONSTANTS, COORDINATES, FUNCTIONS, Expression, ExpressionError
 from .sections import (
@@ -13,9 +14,11 @@ from .sections import (
     GEOMETRY_PARAMS,
     PAPER_ANGLE_BOUNDS_2D,
     PAPER_ANGLE_BOUNDS_3D,
-    Config,
     GrowthConfig,
 )
+
+if TYPE_CHECKING:
+    from .root import Config
 
 
 def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
@@ -122,8 +125,9 @@ def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:
         if not a_lo < a_hi:
             errors.append(f"growth.angles.bounds[{i}]: lower must be below upper, "
                           f"got [{a_lo}, {a_hi}]")
-        elif i < len(a_init) and isinstance(a_init[i], float) and not a_lo <= a_init[i] <= a_hi:
-            errors.append(f"growth.angles.initial[{i}]: {a_init[i]} is outside its bounds "
+        elif i < len(a_init) and isinstance(value := a_init[i], float) \
+                and not a_lo <= value <= a_hi:
+            errors.append(f"growth.angles.initial[{i}]: {value} is outside its bounds "
                           f"[{a_lo}, {a_hi}]")
     if g.start == "target":
         _check_target_start(cfg, errors)
@@ -142,8 +146,11 @@ def _check_target_start(cfg: Config, errors: list[str]) -> None:
                       "use start: given")
     if g.eigenvalues.incompressible:
         errors.append("growth.start: 'target' is not defined with eigenvalues.incompressible")
-    for key in ("eigenvalues", "angles"):
-        if getattr(g, key).initial is not None:
+    n_eig = cfg.model.dim - 1 if g.eigenvalues.incompressible else cfg.model.dim
+    defaults = {"eigenvalues": (1.0,) * n_eig, "angles": (0.0,) * (3 if cfg.model.dim == 3 else 1)}
+    for key, default in defaults.items():
+        # the resolved config holds the defaults: a config checked again stays valid
+        if getattr(g, key).initial not in (None, default):
             errors.append(f"growth.{key}.initial: start: target sets the initial growth; "
                           "remove one of the two")
 
@@ -173,6 +180,7 @@ def _check_expressions(cfg: Config, growth: GrowthConfig, errors: list[str]) -> 
 
 def _check_target(cfg: Config, errors: list[str]) -> None:
     target = cfg.target
+    assert target is not None  # the caller checks
     if (target.map is None) == (target.mesh is None):
         errors.append("target: give exactly one of 'map' (expressions) or 'mesh' (a file)")
     if target.map is not None and len(target.map) != cfg.model.dim:

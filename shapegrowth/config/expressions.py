@@ -14,6 +14,7 @@ from __future__ import annotations
 import ast
 import operator
 from collections.abc import Callable, Iterable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -38,7 +39,7 @@ _BINARY = {
     ast.Div: operator.truediv,
     ast.Pow: operator.pow,
 }
-_UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+_UNARY: dict[type, Callable[[Any], Any]] = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 
 Env = Mapping[str, np.ndarray | float]
 
@@ -69,7 +70,7 @@ class Expression:
     def __repr__(self) -> str:
         return f"Expression({self.text!r})"
 
-    def _compile(self, node: ast.AST) -> Callable[[Env], np.ndarray | float]:
+    def _compile(self, node: ast.AST) -> Callable[[Env], Any]:
         if isinstance(node, ast.Constant):
             if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
                 raise ExpressionError(f"only numbers are allowed as constants, not {node.value!r}")
@@ -86,13 +87,13 @@ class Expression:
             self.names.add(name)
             return lambda env: env[name]
         if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
-            op = _BINARY[type(node.op)]
+            binary = _BINARY[type(node.op)]
             left, right = self._compile(node.left), self._compile(node.right)
-            return lambda env: op(left(env), right(env))
+            return lambda env: binary(left(env), right(env))
         if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
-            op = _UNARY[type(node.op)]
+            unary = _UNARY[type(node.op)]
             operand = self._compile(node.operand)
-            return lambda env: op(operand(env))
+            return lambda env: unary(operand(env))
         if isinstance(node, ast.Call):
             if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
                 allowed = ", ".join(FUNCTIONS)

@@ -11,9 +11,9 @@ from typing import Any
 
 import yaml
 
-from .checks import resolve_and_check
-from .schema import build, field_paths, reference_markdown
-from .sections import Config, ConfigError
+from .root import Config, validated
+from .schema import field_paths, reference_markdown
+from .sections import ConfigError
 
 
 def load(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Config:
@@ -37,11 +37,9 @@ def load(path: str | Path, overrides: list[str] | tuple[str, ...] = ()) -> Confi
 def from_dict(raw: dict[str, Any], overrides: list[str] | tuple[str, ...] = ()) -> Config:
     errors: list[str] = []
     raw = apply_overrides(raw, overrides, errors)
-    cfg = build(Config, raw, "", errors)
-    if cfg is not None:
-        cfg = resolve_and_check(cfg, errors)
-    if errors:
-        raise ConfigError(errors)
+    cfg = validated(raw, errors)
+    if errors or cfg is None:
+        raise ConfigError(errors or ["config: not a valid config"])
     return cfg
 
 

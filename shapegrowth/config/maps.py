@@ -4,10 +4,15 @@ of the target's own volume measure."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .expressions import evaluate
-from .sections import Config
+from .sections import resolved
+
+if TYPE_CHECKING:
+    from .root import Config
 
 # |det grad Phi_d| below this is a map without volume there (scenes 2 and 5)
 DEGENERATE = 1e-6
@@ -36,7 +41,7 @@ def target_gradient(cfg: Config, X: np.ndarray) -> np.ndarray:
         plus, minus = X.copy(), X.copy()
         plus[j] += step
         minus[j] -= step
-        for i, e in enumerate(cfg.target.map[:dim]):
+        for i, e in enumerate(resolved(resolved(cfg.target).map)[:dim]):
             grad[:, i, j] = (evaluate(e, plus, params, axis)
                              - evaluate(e, minus, params, axis)) / (2 * step)
     return grad

@@ -14,7 +14,7 @@ import difflib
 import re
 import types
 import typing
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, Union
 
 MISSING = dataclasses.MISSING
@@ -158,7 +158,7 @@ def _convert(value: Any, tp: Any, path: str, errors: list[str]) -> Any:
     raise TypeError(f"unsupported annotation {tp!r} at {path}")  # a schema bug, not user input
 
 
-def build(cls: type, raw: dict[str, Any], path: str, errors: list[str]) -> Any:
+def build(cls: Any, raw: dict[str, Any], path: str, errors: list[str]) -> Any:
     """Build dataclass ``cls`` from mapping ``raw``, collecting problems in ``errors``."""
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls)}
@@ -172,7 +172,7 @@ def build(cls: type, raw: dict[str, Any], path: str, errors: list[str]) -> Any:
     for name, f in fields.items():
         key_path = f"{prefix}{name}"
         if name not in raw:
-            if f.default is MISSING and f.default_factory is MISSING:  # type: ignore[misdefined]
+            if f.default is MISSING and f.default_factory is MISSING:
                 errors.append(f"{key_path}: required ({f.metadata.get('help', '')})")
             continue
         value = convert(raw[name], hints[name], key_path, errors)
@@ -189,7 +189,7 @@ def _accepts_none(tp: Any) -> bool:
     return typing.get_origin(tp) in (Union, types.UnionType) and type(None) in typing.get_args(tp)
 
 
-def _check_range(value: Any, meta: dict[str, Any], path: str, errors: list[str]) -> None:
+def _check_range(value: Any, meta: Mapping[str, Any], path: str, errors: list[str]) -> None:
     choices = meta.get("choices")
     if choices and value not in choices:
         allowed = ", ".join(map(str, choices))
@@ -205,7 +205,7 @@ def _check_range(value: Any, meta: dict[str, Any], path: str, errors: list[str])
             errors.append(f"{path}: {_show(value)} must be {sign} {bound}")
 
 
-def field_paths(cls: type, prefix: str = "") -> dict[str, Any]:
+def field_paths(cls: Any, prefix: str = "") -> dict[str, Any]:
     """Every dotted key of the schema with its annotation (for ``--set`` checks)."""
     hints = typing.get_type_hints(cls)
     paths: dict[str, Any] = {}
@@ -228,7 +228,7 @@ def reference_markdown(cls: type, title: str, intro: str) -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
-def _reference_section(cls: type, prefix: str, lines: list[str]) -> None:
+def _reference_section(cls: Any, prefix: str, lines: list[str]) -> None:
     hints = typing.get_type_hints(cls)
     rows, sections = [], []
     for f in dataclasses.fields(cls):

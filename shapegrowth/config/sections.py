@@ -4,11 +4,9 @@ config is loading.py's."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
+from typing import TypeVar
 
 from .schema import option
 
@@ -34,6 +32,17 @@ PAPER_ANGLE_BOUNDS_3D = ((0.0, 2 * math.pi), (0.0, math.pi), (0.0, 2 * math.pi))
 PAPER_ANGLE_BOUNDS_2D = ((0.0, 2 * math.pi),)
 
 Scalar = float | str  # a number or an expression
+T = TypeVar("T")
+
+
+def resolved(value: T | None) -> T:
+    """A key whose default depends on others (``growth.eigenvalues.design``, ...): ``None``
+    in the schema means "the default", which every :class:`Config` resolves when it is made
+    (root.py), so a config's value is never ``None``."""
+    if value is None:
+        raise ConfigError(["config: a default was left unresolved (make configs with load, "
+                           "from_dict or Config(...))"])
+    return value
 
 
 class ConfigError(ValueError):
@@ -225,7 +234,7 @@ class SolverConfig:
         "tangent (false: assemble and factor the tangent anew)", True)
     continuation: ContinuationConfig = option("growth continuation and step cutting",
                                               ContinuationConfig())
-    petsc_options: dict[str, str | float | int | bool] = option(
+    petsc_options: dict[str, str | bool | int | float] = option(
         "extra PETSc options, keys with their prefix (state_, adjoint_, filter_)", {})
 
 
@@ -233,49 +242,3 @@ class SolverConfig:
 class OutputConfig:
     dir: str | None = option("output folder (default results/<name>)", None)
     checkpoint_every: int = option("write checkpoint.h5 every this many iterations", 5, ge=1)
-
-
-@dataclass(frozen=True)
-class Config:
-    name: str = option("name of the run")
-    geometry: GeometryConfig = option("reference body")
-    mesh: MeshConfig = option("mesh generation")
-    boundary: BoundaryConfig = option("Dirichlet data")
-    parameters: dict[str, float] = option("extra named numbers usable in expressions", {})
-    model: ModelConfig = option("discretisation", ModelConfig())
-    material: MaterialConfig = option("material", MaterialConfig())
-    loads: LoadsConfig = option("external loads", LoadsConfig())
-    growth: GrowthConfig = option("growth tensor C_g (5.2)-(5.5)", GrowthConfig())
-    target: TargetConfig | None = option("target shape", None)
-    objective: ObjectiveConfig = option("objective", ObjectiveConfig())
-    optimizer: OptimizerConfig = option("optimiser", OptimizerConfig())
-    solver: SolverConfig = option("state solver", SolverConfig())
-    output: OutputConfig = option("outputs", OutputConfig())
-
-    # ---- derived views used across the package -------------------------------------------
-    @property
-    def dim(self) -> int:
-        return self.model.dim
-
-    @property
-    def expression_params(self) -> dict[str, float]:
-        """Numbers an expression may name: geometry parameters and ``parameters``."""
-        names = {k: getattr(self.geometry, k) for k in GEOMETRY_PARAMS[self.geometry.kind]}
-        names.update(self.parameters)
-        return {k: float(v) for k, v in names.items() if v is not None}
-
-    @property
-    def cylinder_axis(self) -> int:
-        """Axis of ``r, theta`` in expressions: X1 for a tube, X3 otherwise."""
-        return 1 if self.geometry.kind == "tube" else 3
-
-    @property
-    def output_dir(self) -> Path:
-        return Path(self.output.dir or f"results/{self.name}")
-
-    @property
-    def quadrature_degree(self) -> int:
-        return self.model.quadrature_degree or 2 * self.model.degree
-
-    def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)

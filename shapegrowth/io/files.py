@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -72,7 +73,7 @@ def eigenvector_fields(growth: Growth) -> list[dolfinx.fem.Function]:
 
 
 def write_fields(path: Path, displacement: dolfinx.fem.Function, growth: Growth,
-                 extra: list[dolfinx.fem.Function] = ()) -> None:
+                 extra: Sequence[dolfinx.fem.Function] = ()) -> None:
     """fields.xdmf: displacement, growth eigenvalues (and angles), eigenvectors."""
     functions = [to_p1(displacement, "displacement")]
     functions += [to_p1(f) for f in growth.fields]

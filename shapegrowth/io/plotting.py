@@ -156,6 +156,7 @@ def write_frame_png(path, u: dolfinx.fem.Function, eigenvalues: list[dolfinx.fem
     artist = draw(ax, surf, edgecolor="0.85")
     every = max(1, len(target) // 4000)
     ax.plot(target[::every, 0], target[::every, 1], ".", ms=1.0, color="r", alpha=0.25)
+    assert surf.values is not None  # coloured by lambda_1
     pick = slice(None, None, max(1, len(a) // 500))  # at most ~500 glyphs
     P, a, lam1, lam2 = surf.deformed[pick], a[pick], surf.values[pick], lam2[pick]
     span = np.ptp(surf.deformed[:, :2], axis=0).max()

@@ -20,7 +20,7 @@ residual is below 1e-12 of b or the correction below 1e-9 of p.  Two or three
 refinements suffice on a thin beam; this replaces a
 matrix assembly and a factorisation by back-solves and vector assemblies.  Where
 refinement stalls (the factors are of an older state) the tangent is assembled
-and factored anew with the solver of prefix ``adjoint_`` (MUMPS LU by default),
+and factored anew with the adjoint solver (MUMPS LU by default, options ``adjoint_...``),
 which ``solver.adjoint_reuse: false`` always does.
 """
 
@@ -33,7 +33,7 @@ import dolfinx.fem.petsc
 import ufl
 from petsc4py import PETSc
 
-from ..compat import set_option
+from ..physics.options import SolverOptions
 from ..physics.state import StateProblem
 from ..shape.clouds import assemble
 
@@ -45,7 +45,7 @@ class AdjointSolveError(RuntimeError):
 
 
 class AdjointProblem:
-    prefix = "adjoint_"
+    role = "adjoint_"  # the prefix of this solver's keys in solver.petsc_options
     refine_rtol = 1e-12  # residual, relative to b
     step_rtol = 1e-9  # correction, relative to p
     max_refinements = 6
@@ -56,18 +56,15 @@ class AdjointProblem:
         self.A = dolfinx.fem.petsc.create_matrix(state.jacobian_form)
         self.rhs = self.A.createVecRight()
         self.ksp = PETSc.KSP().create(state.domain.mesh.comm)
-        self.ksp.setOptionsPrefix(self.prefix)
-        opts = PETSc.Options()
-        defaults = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
+        defaults: dict[str, object] = {"ksp_type": "preonly", "pc_type": "lu",
+                                       "pc_factor_mat_solver_type": "mumps"}
         if state.cfg.solver.linear == "gamg":
             defaults = {"ksp_type": "gmres", "ksp_rtol": 1e-12, "ksp_max_it": 5000,
                         "ksp_gmres_restart": 200, "pc_type": "gamg"}
-        for key, value in defaults.items():
-            opts[self.prefix + key] = value
-        for key, value in state.cfg.solver.petsc_options.items():
-            if key.startswith(self.prefix):
-                set_option(opts, key, value)
-        self.ksp.setFromOptions()
+        self.options = SolverOptions(self.role, defaults, state.cfg.solver.petsc_options)
+        self.ksp.setOptionsPrefix(self.options.prefix)
+        with self.options.pushed():
+            self.ksp.setFromOptions()
         self.reuse = state.cfg.solver.adjoint_reuse
         self._action = dolfinx.fem.form(ufl.action(state.jacobian_ufl, self.p))
         self._residual = dolfinx.fem.petsc.create_vector(self._action)  # ghosted
@@ -87,16 +84,19 @@ class AdjointProblem:
         dolfinx.fem.petsc.set_bc(self.rhs, st.bcs, scale=0.0)  # p = 0 where u is prescribed
         if self.reuse and self.state.jacobian_assemblies > 0:
             try:
-                if self._solve_with_state_factors():
-                    return self.refinements
+                with self.state.options.pushed():  # the state's KSP, under its options
+                    if self._solve_with_state_factors():
+                        return self.refinements
             except PETSc.Error as err:  # factors unusable: fall back to fresh ones
                 log.debug("adjoint: the state's factors failed (PETSc error %d)", err.ierr)
         self.refinements = -1
         self.A.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(self.A, st.jacobian_form, bcs=st.bcs)
+        # dolfinx 0.5's annotations miss this (singledispatch) overload
+        dolfinx.fem.petsc.assemble_matrix(self.A, st.jacobian_form, bcs=st.bcs)  # type: ignore[misc]
         self.A.assemble()
         self.ksp.setOperators(self.A)
-        self.ksp.solve(self.rhs, self.p.vector)
+        with self.options.pushed():
+            self.ksp.solve(self.rhs, self.p.vector)
         if self.ksp.getConvergedReason() < 0:
             raise AdjointSolveError(f"adjoint solve failed (KSP reason "
                                     f"{self.ksp.getConvergedReason()}); a direct solver "

@@ -25,7 +25,7 @@ import dolfinx.fem
 import numpy as np
 from mpi4py import MPI
 
-from ..config import Config
+from ..config import Config, resolved
 from ..physics.filters import HelmholtzFilter
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
@@ -62,10 +62,11 @@ class ReducedFunctional:
         self.n_owned = self.space.dofmap.index_map.size_local
         # the filtered fields lambda_hat, theta_hat that C_g is made of, and their bounds
         eig = cfg.growth.eigenvalues
-        self.targets = [growth.eigenvalues[i - 1] for i in eig.design] + list(growth.angles)
-        self.bounds_per_field = [eig.bounds] * len(eig.design) + \
-            [tuple(b) for b in cfg.growth.angles.bounds[:len(growth.angles)]]
-        self.names = [f"lambda_{i}" for i in eig.design] + \
+        design = resolved(eig.design)
+        self.targets = [growth.eigenvalues[i - 1] for i in design] + list(growth.angles)
+        self.bounds_per_field = [eig.bounds] * len(design) + \
+            [tuple(b) for b in resolved(cfg.growth.angles.bounds)[:len(growth.angles)]]
+        self.names = [f"lambda_{i}" for i in design] + \
             [f"theta_{k + 1}" for k in range(len(growth.angles))]
         self.design = [dolfinx.fem.Function(self.space, name=n) for n in self.names]
         for rho, field in zip(self.design, self.targets):
@@ -118,7 +119,7 @@ class ReducedFunctional:
             with self.timer("forward"):
                 report = state.solve()
             if not report.converged:
-                self._key, self._last, self._report = None, None, None
+                self._forget()
                 raise StateSolveError(report)
             self._report = report
         else:
@@ -132,10 +133,29 @@ class ReducedFunctional:
         self._key, self._last = key, Evaluation(value, grad, report)
         return self._last
 
-    def restart_from_rest(self) -> None:
-        """The next evaluation solves its state from rest (load steps from C_g = I), even for
-        the design evaluated last: the state and the cached evaluation are both dropped."""
-        self.model.state.reset()
+    def restart_from_rest(self, step_scale: float = 1.0) -> None:
+        """The next evaluation solves its state from rest (load steps from C_g = I, the first
+        one ``step_scale`` times the configured), even for the design evaluated last: the
+        state and the cached evaluation are both dropped."""
+        self.model.state.reset(step_scale)
+        self._forget()
+
+    def state_snapshot(self) -> np.ndarray:
+        """The state's owned displacement DOFs (for a checkpoint)."""
+        return self.model.state.snapshot()
+
+    def restore(self, m: np.ndarray, state: np.ndarray) -> None:
+        """Design ``m`` with ``state`` (a :meth:`state_snapshot`) as its equilibrium: a
+        resumed run continues exactly where the interrupted one was."""
+        self._apply(np.ascontiguousarray(m, dtype=float))
+        self.model.state.restore(state)
+        self._forget()
+
+    def stopping_scale(self) -> float:
+        """The scale of an absolute stopping test on J (0: none; see Objective)."""
+        return self.objective.stopping_scale()
+
+    def _forget(self) -> None:
         self._key, self._last, self._report = None, None, None
 
     def set_alpha(self, alpha: float) -> None:
@@ -166,7 +186,9 @@ class ReducedFunctional:
         return self.evaluate(m, gradient=False).value.total
 
     def gradient(self, m: np.ndarray) -> np.ndarray:
-        return self.evaluate(m, gradient=True).gradient
+        grad = self.evaluate(m, gradient=True).gradient
+        assert grad is not None  # asked for
+        return grad
 
     def dot(self, a: np.ndarray, b: np.ndarray) -> float:
         """Euclidean inner product of two distributed design vectors."""

@@ -12,6 +12,8 @@ no vertex exactly on that line or plane, growth alone is still reaction-free
 
 from __future__ import annotations
 
+from typing import Any
+
 import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
@@ -20,7 +22,7 @@ from mpi4py import MPI
 from .geometry import Domain
 
 
-def clamp_conditions(V, domain: Domain, clamp: str) -> list:
+def clamp_conditions(V: Any, domain: Domain, clamp: str) -> list:
     """Homogeneous Dirichlet conditions for the displacement space ``V``."""
     mesh = domain.mesh
     if clamp == "rigid":
@@ -74,7 +76,8 @@ def _rigid_pins(V, mesh) -> list:
         return np.column_stack([too_close, misaligned, np.abs(d[:, axis] - 0.45 * extent[axis])])
 
     b = best_vertex(mesh, lambda x: off_axis(x, 0, far=True))
-    pins = [(a, range(gdim)), (b, range(1, gdim))]
+    pins: list[tuple[np.ndarray, list[int]]] = [(a, list(range(gdim))),
+                                                (b, list(range(1, gdim)))]
     if gdim == 3:
         c = best_vertex(mesh, lambda x: off_axis(x, 1, far=False))
         pins.append((c, [2]))
@@ -83,7 +86,7 @@ def _rigid_pins(V, mesh) -> list:
     for point, components in pins:
         vertices = dolfinx.mesh.locate_entities(
             mesh, 0, lambda x, p=point: np.linalg.norm(x - p.reshape(3, 1), axis=0) < tol)
-        for c in components:
-            dofs = dolfinx.fem.locate_dofs_topological(V.sub(c), 0, vertices)
-            bcs.append(dolfinx.fem.dirichletbc(np.float64(0.0), dofs, V.sub(c)))
+        for component in components:
+            dofs = dolfinx.fem.locate_dofs_topological(V.sub(component), 0, vertices)
+            bcs.append(dolfinx.fem.dirichletbc(np.float64(0.0), dofs, V.sub(component)))  # type: ignore[arg-type]
     return bcs

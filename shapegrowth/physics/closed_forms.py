@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+ArrayOrFloat = float | np.ndarray  # a value, or one per point
+
 EPS = np.zeros((3, 3, 3))
 EPS[0, 1, 2] = EPS[1, 2, 0] = EPS[2, 0, 1] = 1.0
 EPS[0, 2, 1] = EPS[2, 1, 0] = EPS[1, 0, 2] = -1.0
@@ -72,7 +74,7 @@ def growth_sensitivity(F: np.ndarray, Cg: np.ndarray, grad_p: np.ndarray, mu1: f
                                         + lmbda * J / (2 * d**1.5)) * cof_cg)
 
 
-def rodrigues_vectors(t1: float, t2: float, t3: float) -> np.ndarray:
+def rodrigues_vectors(t1: ArrayOrFloat, t2: ArrayOrFloat, t3: ArrayOrFloat) -> np.ndarray:
     """(5.5) with v1[2] corrected: rows are v1, v2, v3."""
     c1, s1, c2, s2, c3, s3 = np.cos(t1), np.sin(t1), np.cos(t2), np.sin(t2), np.cos(t3), np.sin(t3)
     v1 = [(c3 - 1) * (c2**2 + s2**2 * s1**2) + 1,

@@ -4,7 +4,7 @@ On the growth space with mass matrix M and K = M + l^2 S (S the stiffness
 matrix), the filtered nodal values are rho_hat = K^-1 M rho (``forward``).  A
 derivative with respect to rho_hat (a dual vector) is carried back to rho by the
 transpose, M K^-1 (``backward``; K and M are symmetric).  l = 0 is the identity.
-The solver has the options prefix ``filter_`` (CG + Jacobi by default: K is a
+The solver takes the options ``filter_...`` (CG + Jacobi by default: K is a
 well-conditioned SPD matrix, about as cheap as a mass matrix).
 """
 
@@ -15,11 +15,11 @@ import dolfinx.fem.petsc
 import ufl
 from petsc4py import PETSc
 
-from ..compat import set_option
+from .options import SolverOptions
 
 
 class HelmholtzFilter:
-    prefix = "filter_"
+    role = "filter_"  # the prefix of this solver's keys in solver.petsc_options
 
     def __init__(self, space, length: float, petsc_options: dict | None = None):
         self.space, self.length = space, float(length)
@@ -35,17 +35,13 @@ class HelmholtzFilter:
         self.M = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(u * v * dx))
         self.M.assemble()
         self.ksp = PETSc.KSP().create(space.mesh.comm)
-        self.ksp.setOptionsPrefix(self.prefix)
-        opts = PETSc.Options()
         defaults = {"ksp_type": "cg", "pc_type": "jacobi", "ksp_rtol": 1e-13, "ksp_atol": 1e-30,
                     "ksp_max_it": 2000}
-        for key, value in defaults.items():
-            opts[self.prefix + key] = value
-        for key, value in (petsc_options or {}).items():
-            if key.startswith(self.prefix):
-                set_option(opts, key, value)
+        self.options = SolverOptions(self.role, defaults, petsc_options)
+        self.ksp.setOptionsPrefix(self.options.prefix)
         self.ksp.setOperators(self.K)
-        self.ksp.setFromOptions()
+        with self.options.pushed():
+            self.ksp.setFromOptions()
         self._work = self.K.createVecRight()
 
     @property
@@ -58,7 +54,8 @@ class HelmholtzFilter:
             out.x.array[:] = rho.x.array
             return
         self.M.mult(rho.vector, self._work)
-        self.ksp.solve(self._work, out.vector)
+        with self.options.pushed():
+            self.ksp.solve(self._work, out.vector)
         out.x.scatter_forward()
 
     def backward(self, dual: PETSc.Vec, out: PETSc.Vec) -> None:
@@ -66,5 +63,6 @@ class HelmholtzFilter:
         if not self.active:
             dual.copy(out)
             return
-        self.ksp.solve(dual, self._work)
+        with self.options.pushed():
+            self.ksp.solve(dual, self._work)
         self.M.mult(self._work, out)

@@ -29,23 +29,46 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from mpi4py import MPI
 
-from ..config import BOUNDARIES, GEOMETRY_PARAMS, LAYERED, Config, ConfigError
+if TYPE_CHECKING:
+    import dolfinx.mesh
+
+from ..config import BOUNDARIES, GEOMETRY_PARAMS, LAYERED, Config, ConfigError, resolved
 
 log = logging.getLogger(__name__)
 
 BUILDER_VERSION = 3  # bump when a builder changes, so cached meshes are rebuilt
 
 
+@dataclass(frozen=True)
+class _Dimensions:
+    """The geometry's numbers for its kind, as floats (a config holds every number its kind
+    takes, GEOMETRY_PARAMS; the others are never read)."""
+
+    length: float = math.nan
+    width: float = math.nan
+    thickness: float = math.nan
+    radius: float = math.nan
+    inner_radius: float = math.nan
+    height: float = math.nan
+    side: float = math.nan
+
+
+def _dims(cfg: Config) -> _Dimensions:
+    geo = cfg.geometry
+    return _Dimensions(**{k: float(resolved(getattr(geo, k))) for k in GEOMETRY_PARAMS[geo.kind]})
+
+
 @dataclass
 class Domain:
     """A distributed dolfinx mesh with its named boundaries."""
 
-    mesh: object  # dolfinx.mesh.Mesh
-    facet_tags: object  # dolfinx.mesh.MeshTags
+    mesh: dolfinx.mesh.Mesh
+    facet_tags: Any  # dolfinx.mesh.MeshTags (0.5: made by a metaclass, not a type)
     boundaries: dict[str, int]
     kind: str
     path: Path
@@ -156,7 +179,7 @@ def _count(extent: float, h: float, minimum: int = 1) -> int:
 
 
 def _box(gmsh, cfg: Config, h: float) -> None:
-    g = cfg.geometry
+    g = _dims(cfg)
     occ = gmsh.model.occ
     rect = occ.addRectangle(0.0, -g.width / 2, -g.thickness / 2, g.length, g.width)
     occ.extrude([(2, rect)], 0, 0, g.thickness, numElements=[cfg.mesh.layers])
@@ -185,7 +208,7 @@ def _graded_towards_x1_min(gmsh, surface: int, h_min: float, h: float, rate: flo
 
 
 def _annulus(gmsh, cfg: Config, h: float) -> None:
-    g = cfg.geometry
+    g = _dims(cfg)
     occ = gmsh.model.occ
     outer = occ.addDisk(0, 0, -g.thickness / 2, g.radius, g.radius)
     inner = occ.addDisk(0, 0, -g.thickness / 2, g.inner_radius, g.inner_radius)
@@ -227,7 +250,7 @@ def _structured_ring(gmsh, r_in: float, r_out: float, n_around: int, n_wall: int
 
 
 def _tube(gmsh, cfg: Config, h: float) -> None:
-    g = cfg.geometry
+    g = _dims(cfg)
     n_around = _count(2 * math.pi * g.radius, h, minimum=8)
     surfaces = _structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
                                 cfg.mesh.layers, plane="yz")
@@ -237,7 +260,7 @@ def _tube(gmsh, cfg: Config, h: float) -> None:
 
 
 def _cylinder_shell(gmsh, cfg: Config, h: float) -> None:
-    g = cfg.geometry
+    g = _dims(cfg)
     n_around = _count(2 * math.pi * g.radius, h, minimum=8)
     surfaces = _structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
                                 cfg.mesh.layers, plane="xy")
@@ -269,14 +292,14 @@ def _structured(gmsh, n: int) -> None:
 
 
 def _rectangle(gmsh, cfg: Config, h: float) -> None:
-    s = cfg.geometry.side
+    s = _dims(cfg).side
     gmsh.model.occ.addRectangle(-s / 2, -s / 2, 0.0, s, s)
     gmsh.model.occ.synchronize()
     _structured(gmsh, _even_count(s, h))
 
 
 def _cube(gmsh, cfg: Config, h: float) -> None:
-    s = cfg.geometry.side
+    s = _dims(cfg).side
     gmsh.model.occ.addBox(-s / 2, -s / 2, -s / 2, s, s, s)
     gmsh.model.occ.synchronize()
     _structured(gmsh, _even_count(s, h))
@@ -285,7 +308,7 @@ def _cube(gmsh, cfg: Config, h: float) -> None:
 def _boundary_name(kind: str, cfg: Config, lo: np.ndarray, hi: np.ndarray,
                    tol: float) -> str | None:
     """Name of the boundary entity with bounding box [lo, hi], from its position."""
-    g = cfg.geometry
+    g = _dims(cfg)
     flat = [i for i in range(3) if hi[i] - lo[i] < tol]
     if kind in ("box", "cube", "rectangle"):
         if kind == "box":

@@ -26,7 +26,7 @@ import ufl
 from mpi4py import MPI
 
 from .. import compat
-from ..config import Config, ConfigError
+from ..config import Config, ConfigError, resolved
 from ..config.expressions import evaluate
 from ..config.maps import target_metric
 from .eigenframes import aligned_eigenframes, rodrigues_angles
@@ -101,12 +101,12 @@ class Growth:
         params, axis = cfg.expression_params, cfg.cylinder_axis
         problems: list[str] = []
         lo, hi = g.eigenvalues.bounds
-        for i, (f, value) in enumerate(zip(self.eigenvalues, g.eigenvalues.initial)):
+        for i, (f, value) in enumerate(zip(self.eigenvalues, resolved(g.eigenvalues.initial))):
             f.x.array[:] = evaluate(value, x, params, axis)
             _check_bounds(f, lo, hi, f"growth.eigenvalues.initial[{i}]", problems)
-        for i, (f, value) in enumerate(zip(self.angles, g.angles.initial)):
+        for i, (f, value) in enumerate(zip(self.angles, resolved(g.angles.initial))):
             f.x.array[:] = evaluate(value, x, params, axis)
-            a_lo, a_hi = g.angles.bounds[i]
+            a_lo, a_hi = resolved(g.angles.bounds)[i]
             _check_bounds(f, a_lo, a_hi, f"growth.angles.initial[{i}]", problems)
         if g.start == "target":
             self._start_from_target(cfg, x, problems)
@@ -128,7 +128,7 @@ class Growth:
         elif self.frame == "free":
             w, vecs = np.linalg.eigh(C)
             lams = [w[:, 1], w[:, 0]]
-            a_lo, a_hi = cfg.growth.angles.bounds[0]
+            a_lo, a_hi = resolved(cfg.growth.angles.bounds)[0]
             angle = np.arctan2(vecs[:, 1, 1], vecs[:, 0, 1])  # v1 and -v1: the same frame
             self.angles[0].x.array[:] = np.minimum(a_lo + np.mod(angle - a_lo, np.pi), a_hi)
         else:
@@ -164,7 +164,7 @@ class Growth:
             parts = None
         lam_own, ang_own = comm.scatter(parts, root=0)
         for i, f in enumerate(self.angles):
-            a_lo, a_hi = cfg.growth.angles.bounds[i]
+            a_lo, a_hi = resolved(cfg.growth.angles.bounds)[i]
             f.x.array[:owned] = np.clip(ang_own[:, i], a_lo, a_hi)
             f.x.scatter_forward()
         # the eigenvalue fields carry the values to the ghosts; the caller clips them

@@ -11,7 +11,7 @@ import ufl
 from mpi4py import MPI
 
 from .. import compat
-from ..config import Config
+from ..config import Config, resolved
 from .geometry import Domain, load_domain
 from .growth import Growth
 from .state import StateProblem
@@ -72,7 +72,8 @@ class ForwardModel:
 
     def design_dofs(self) -> int:
         g = self.cfg.growth
-        n_fields = len(g.eigenvalues.design) + (len(self.growth.angles) if g.frame == "free" else 0)
+        angles = len(self.growth.angles) if g.frame == "free" else 0
+        n_fields = len(resolved(g.eigenvalues.design)) + angles
         return n_fields * compat.global_size(self.growth.space)
 
 

@@ -30,12 +30,12 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import compat
-from ..compat import set_option
-from ..config import Config, ConfigError
+from ..config import Config, ConfigError, resolved
 from .boundary import clamp_conditions
 from .geometry import Domain
 from .growth import Growth
 from .material import MooneyRivlin, deformation_gradient
+from .options import SolverOptions
 
 log = logging.getLogger(__name__)
 
@@ -58,7 +58,7 @@ class SolveReport:
 
 
 def solver_options(cfg: Config, force_scale: float) -> dict[str, object]:
-    """PETSc options of the state solver (without the ``state_`` prefix).
+    """PETSc options of the state solver (without a prefix).
 
     The absolute tolerance is ``solver.atol`` times the body's force scale, so that
     it means the same for a beam of volume 0.002 and a square of area 16: thin bodies
@@ -86,7 +86,7 @@ def solver_options(cfg: Config, force_scale: float) -> dict[str, object]:
 class StateProblem:
     """u such that R(u; C_g) = 0, for the growth held in ``self.target``."""
 
-    prefix = "state_"
+    role = "state_"  # the prefix of this solver's keys in solver.petsc_options
 
     def __init__(self, domain: Domain, cfg: Config, growth: Growth):
         self.domain, self.cfg, self.target = domain, cfg, growth
@@ -116,7 +116,7 @@ class StateProblem:
         self.jacobian_assemblies = 0  # the SNES's linear solver holds factors once this is > 0
         self._at_rest = True
         self._equilibrium: list[np.ndarray] | None = None  # growth values of the last equilibrium
-        self.initial_step_scale = 1.0  # a retry from rest may ask for smaller first steps
+        self._first_step_scale = 1.0  # a retry from rest may ask for smaller first steps
         self._det_F = self._det_F_sampler(max(cfg.quadrature_degree,
                                               cfg.objective.hausdorff.quadrature_degree))
 
@@ -128,8 +128,9 @@ class StateProblem:
         F = self.deformation_gradient()
         energy = self.material.energy_density(F, self.applied.tensor()) * self.dx
         loads = self.cfg.loads
-        if any(loads.body_force):
-            f = dolfinx.fem.Constant(self.domain.mesh, np.array(loads.body_force, dtype=float))
+        body_force = resolved(loads.body_force)
+        if any(body_force):
+            f = dolfinx.fem.Constant(self.domain.mesh, np.array(body_force, dtype=float))
             energy -= self.load_scale * ufl.dot(f, self.u) * self.dx
         for name, vec in loads.traction.items():
             if any(vec):
@@ -168,26 +169,23 @@ class StateProblem:
     # ---- PETSc -----------------------------------------------------------------------------
     def _create_snes(self) -> PETSc.SNES:
         snes = PETSc.SNES().create(self.domain.mesh.comm)
-        snes.setOptionsPrefix(self.prefix)
-        opts = PETSc.Options()
-        for key, value in solver_options(self.cfg, self.force_scale()).items():
-            opts[self.prefix + key] = value
-        user = {k: v for k, v in self.cfg.solver.petsc_options.items()
-                if k.startswith(self.prefix)}
-        for key, value in user.items():
-            set_option(opts, key, value)
-        snes.setFunction(self._assemble_residual, self.b)
-        snes.setJacobian(self._assemble_jacobian, self.A)
+        self.options = SolverOptions(self.role, solver_options(self.cfg, self.force_scale()),
+                                     self.cfg.solver.petsc_options)
+        snes.setOptionsPrefix(self.options.prefix)
+        snes.setFunction(lambda _snes, x, b: self.assemble_residual(x, b), self.b)
+        snes.setJacobian(lambda _snes, x, A, _P: self.assemble_tangent(x, A), self.A)
         try:
-            snes.setFromOptions()
+            with self.options.pushed():
+                snes.setFromOptions()
         except PETSc.Error as err:
-            raise ConfigError([f"solver.petsc_options: PETSc rejected {sorted(user)} "
-                               f"(error code {err.ierr})"]) from None
+            raise ConfigError([f"solver.petsc_options: PETSc rejected "
+                               f"{self.options.user_keys} (error code {err.ierr})"]) from None
         if self.cfg.solver.linear == "gamg":
             self.A.setNearNullSpace(rigid_body_modes(self.V))
         return snes
 
-    def _assemble_residual(self, snes, x: PETSc.Vec, b: PETSc.Vec) -> None:
+    def assemble_residual(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        """R(x) into ``b``, with the Dirichlet rows set to x - g (SNES's residual)."""
         x.ghostUpdate(addv=_INSERT, mode=_FORWARD)
         x.copy(self.u.vector)
         self.u.vector.ghostUpdate(addv=_INSERT, mode=_FORWARD)
@@ -199,16 +197,19 @@ class StateProblem:
         b.ghostUpdate(addv=_ADD, mode=_REVERSE)
         dolfinx.fem.petsc.set_bc(b, self.bcs, x, -1.0)
 
-    def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
+    def assemble_tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
+        """The tangent (5.12) at the current ``u`` into ``A`` (SNES's Jacobian)."""
         A.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(A, self.jacobian_form, bcs=self.bcs)
+        # dolfinx 0.5's annotations miss this (singledispatch) overload
+        dolfinx.fem.petsc.assemble_matrix(A, self.jacobian_form, bcs=self.bcs)  # type: ignore[misc]
         A.assemble()
         self.jacobian_assemblies += 1
 
     def _newton(self) -> tuple[bool, int, str]:
         x = self.u.vector
         try:
-            self.snes.solve(None, x)
+            with self.options.pushed():
+                self.snes.solve(None, x)
         except PETSc.Error as err:  # e.g. a factorisation that broke down
             return False, self.snes.getIterationNumber(), f"PETSc error {err.ierr}"
         reason = self.snes.getConvergedReason()
@@ -224,18 +225,31 @@ class StateProblem:
         return True, its, _SNES_REASONS[reason]
 
     # ---- continuation ----------------------------------------------------------------------
-    def adopt_equilibrium(self) -> None:
-        """Take the current ``u`` as the equilibrium of the target growth (a restored state)."""
+    # The state's lifecycle: at rest (after construction or ``reset``), in equilibrium with
+    # the growth ``target`` held at the last ``solve``; ``snapshot``/``restore`` keep and put
+    # back an equilibrium (a run's final check from rest, a resumed run).
+    def reset(self, step_scale: float = 1.0) -> None:
+        """Forget the equilibrium: the next solve starts from rest, its first load step
+        ``step_scale`` times ``solver.continuation.initial_step``."""
+        self.u.x.array[:] = 0.0
+        self._at_rest = True
+        self._equilibrium = None
+        self._first_step_scale = step_scale
+
+    def snapshot(self) -> np.ndarray:
+        """A copy of the owned displacement DOFs."""
+        n = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
+        return self.u.x.array[:n].copy()
+
+    def restore(self, owned: np.ndarray) -> None:
+        """Take the displacement ``owned`` (a :meth:`snapshot`) as the equilibrium of the
+        growth ``target`` now holds."""
+        self.u.x.array[:len(owned)] = owned
+        self.u.x.scatter_forward()
         self.applied.assign(self.target.values())
         self.load_scale.value = 1.0
         self._equilibrium = self.target.values()
         self._at_rest = False
-
-    def reset(self) -> None:
-        """Forget the equilibrium: the next solve starts from rest."""
-        self.u.x.array[:] = 0.0
-        self._at_rest = True
-        self._equilibrium = None
 
     def solve(self) -> SolveReport:
         """Bring ``self.u`` into equilibrium with ``self.target``'s growth."""
@@ -245,8 +259,10 @@ class StateProblem:
         end = self.target.values()
         if self._at_rest:
             start, scale0 = self.target.identity_values(), 0.0
-            dt = cont.initial_step * self.initial_step_scale
+            dt = cont.initial_step * self._first_step_scale
+            self._first_step_scale = 1.0
         else:
+            assert self._equilibrium is not None  # set whenever the state leaves rest
             start, scale0, dt = self._equilibrium, 1.0, 1.0
         # progress per load step from rest; warm re-solves (optimisation) only in --verbose
         level = logging.INFO if self._at_rest else logging.DEBUG

@@ -74,6 +74,8 @@ class ShapeDivergence:
         t_self = self.target_self(target, comm)
         term = ShapeTerm(pair.value - 0.5 * (own.value + t_self), pair, own.value, t_self)
         if gradient:
+            assert pair.grad_points is not None and own.grad_points is not None
+            assert pair.grad_weights is not None and own.grad_weights is not None
             term.grad_points = pair.grad_points - 0.5 * own.grad_points
             term.grad_weights = pair.grad_weights - 0.5 * own.grad_weights
         return term

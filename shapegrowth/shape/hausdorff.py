@@ -146,6 +146,7 @@ class SmoothHausdorff:
 
         The grid is sized from a sample of nearest distances; the exact nearest distances
         (the shift g_min, and the exact Hausdorff distance for free) come from the grid."""
+        kernels.one_thread_per_rank()
         estimate = self._cutoff_radius(self._g(cellgrid.sample_nearest(queries, sources)))
         grid = self._grid(sources, s_weights, estimate)
         order = grid.locality_order(queries)

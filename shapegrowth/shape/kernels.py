@@ -40,15 +40,19 @@ CUTOFF = 20.0  # default cutoff c: a dropped term is below exp(-20) = 2e-9 of th
 # ran at 2.2e8 pairs/s with the clamp at 600, 4.0e8 with it at 100).
 
 
-def _one_thread_per_rank() -> None:
+_threads_decided = False
+
+
+def one_thread_per_rank() -> None:
     """Under MPI the ranks already fill the cores: numba threads would oversubscribe them
     (2 ranks x 2 threads on 2 cores: rho_H no faster than on one rank).  NUMBA_NUM_THREADS,
-    when set, decides."""
-    if MPI.COMM_WORLD.size > 1 and "NUMBA_NUM_THREADS" not in os.environ:
-        numba.set_num_threads(1)
-
-
-_one_thread_per_rank()
+    when set, decides.  Called before the kernels run (not at import: importing changes
+    nothing)."""
+    global _threads_decided
+    if not _threads_decided:
+        _threads_decided = True
+        if MPI.COMM_WORLD.size > 1 and "NUMBA_NUM_THREADS" not in os.environ:
+            numba.set_num_threads(1)
 
 
 # Pair loops of phi = exp are vectorised: "reassoc" lets LLVM split the sums over
@@ -96,7 +100,8 @@ def _exp(x):
     p811 = p89 + r2 * p1011
     p812 = p811 + r4 * (1.0 / 479001600.0)
     p = (p03 + r4 * p47) + (r4 * r4) * p812
-    return p * _bits_as_float((np.int64(n) + 1023) << 52)
+    # a numba intrinsic: its typing context is numba's, not mypy's
+    return p * _bits_as_float((np.int64(n) + 1023) << 52)  # type: ignore[call-arg]
 
 
 @numba.njit(cache=True)

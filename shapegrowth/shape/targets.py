@@ -20,7 +20,7 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import compat
-from ..config import Config, ConfigError
+from ..config import Config, ConfigError, resolved
 from ..config.expressions import evaluate
 from ..config.maps import map_jacobian
 from .clouds import QuadratureCloud
@@ -39,7 +39,7 @@ def target_cloud(cfg: Config, cloud: QuadratureCloud, comm: MPI.Comm) -> PointCl
         if not np.isfinite(points).all():
             raise ConfigError(["target.map: the map is not finite everywhere on the body"])
         return PointCloud(points, cloud.w * map_jacobian(cfg, X, target.weights))
-    return mesh_cloud(Path(target.mesh), cfg.dim, cloud.degree, comm)
+    return mesh_cloud(Path(resolved(target.mesh)), cfg.dim, cloud.degree, comm)
 
 
 def mesh_cloud(path: Path, dim: int, degree: int, comm: MPI.Comm) -> PointCloud:

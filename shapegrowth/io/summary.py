@@ -1,0 +1,130 @@
+"""summary.json as a type: :class:`RunSummary`, written by ``solve`` and ``run``, read by
+``study`` and the scripts.  Its JSON keys are shared/CONTRACT.md's; ``to_json`` writes them
+flat (the forward solve's and the optimisation's own measures beside the common ones) and
+``from_json`` reads them back."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..status import Outcome
+
+
+@dataclass(frozen=True)
+class Dofs:
+    state: int
+    design: int
+
+
+@dataclass(frozen=True)
+class Probe:
+    """A reference point X and its deformed position Phi(X) (``--probe``)."""
+
+    reference: tuple[float, ...]
+    deformed: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class SolveMeasures:
+    """What ``shapegrowth solve`` measures beyond the common keys."""
+
+    volume_reference: float
+    volume_deformed: float
+    stress_l2: float
+    residual_strain: float
+    probes: tuple[Probe, ...] = ()
+
+
+@dataclass(frozen=True)
+class OptimizationMeasures:
+    """What ``shapegrowth run`` measures beyond the common keys."""
+
+    evaluations: int
+    residual_strain: float
+    # the best growth applied to the body at rest (None where that solve failed)
+    rho_H_from_rest: float | None
+    hausdorff_from_rest: float | None
+    resumed: bool
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    name: str
+    status: Outcome
+    iterations: int
+    objective_initial: float | None
+    objective_final: float | None
+    rho_H_initial: float | None
+    rho_H_final: float | None
+    hausdorff_initial: float | None
+    hausdorff_final: float | None
+    target_size: float | None
+    wall_time_s: float
+    time_split: dict[str, float]
+    newton_iterations_total: int
+    continuation_steps: int
+    failed_steps: int
+    growth_reached: float
+    dofs: Dofs
+    mpi_size: int
+    version: str
+    dolfinx_version: str
+    mesh: str
+    config: dict[str, Any] = field(repr=False)
+    solve: SolveMeasures | None = None
+    optimization: OptimizationMeasures | None = None
+
+    @property
+    def relative_error(self) -> float | None:
+        """The final exact Hausdorff distance over the target size (self-reported: on the
+        run's own mesh, along its own path)."""
+        if self.hausdorff_final is None or not self.target_size:
+            return None
+        return self.hausdorff_final / self.target_size
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name in ("solve", "optimization"):
+                if value is not None:
+                    out.update(_plain(value))
+            elif f.name == "status":
+                out["status"] = str(value)
+            else:
+                out[f.name] = _plain(value)
+        return out
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> RunSummary:
+        names = {f.name for f in dataclasses.fields(cls)} - {"solve", "optimization"}
+        common: dict[str, Any] = {k: data.get(k) for k in names}
+        common["status"] = Outcome.parse(str(data["status"]))
+        common["dofs"] = Dofs(**data["dofs"])
+        solve = optimization = None
+        if "volume_reference" in data:
+            keys = [f.name for f in dataclasses.fields(SolveMeasures)]
+            values: dict[str, Any] = {k: data.get(k) for k in keys}
+            values["probes"] = tuple(Probe(tuple(p["reference"]), tuple(p["deformed"]))
+                                     for p in data.get("probes", ()))
+            solve = SolveMeasures(**values)
+        if "evaluations" in data:
+            keys = [f.name for f in dataclasses.fields(OptimizationMeasures)]
+            measured: dict[str, Any] = {k: data.get(k) for k in keys}
+            optimization = OptimizationMeasures(**measured)
+        return cls(**common, solve=solve, optimization=optimization)
+
+
+def _plain(value: Any) -> Any:
+    """JSON-ready: dataclasses to mappings, tuples to lists, numpy numbers to Python's."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if hasattr(value, "item") and callable(value.item):  # numpy scalars and 0-d arrays
+        return value.item()
+    return value
