@@ -20,6 +20,7 @@ from ..io.plotting import write_frame_png, write_shape_png
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
 from ..optim.driver import Driver, DriverSettings, ProgressLog, RetryFromRest
 from ..optim.problem import ReducedFunctional, StateSolveError
+from ..optim.refined import Verified, branch_changed, likely_cause, verify
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
 from ..timing import Timer
@@ -94,6 +95,17 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     first = history[0] if history else None
     # with rho_H at the best design; without a state there, from the clouds as they are
     exact = final.value.hausdorff if final else rf.objective.exact_hausdorff()
+    size = rf.objective.target_size
+    changed = branch_changed(from_rest.hausdorff if from_rest else None, exact, size)
+    verified = None
+    if cfg.verify.enabled:
+        if final is None:
+            verified = Verified(None, None, cfg.verify.refine, 0, 0.0, changed,
+                                "failed: no state at the best design")
+        else:
+            log.info("verifying: the best growth on the mesh refined %d time(s), grown from rest",
+                     cfg.verify.refine)
+            verified = verify(model, cfg.verify.refine, changed)
     summary = base_summary(
         cfg, model, report, status, timer,
         iterations=len(history),
@@ -103,7 +115,7 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         rho_H_final=final.value.rho_H if final else None,
         hausdorff_initial=first.hausdorff if first else None,
         hausdorff_final=exact,
-        target_size=rf.objective.target_size,
+        target_size=size,
         newton_iterations_total=sum(r.newton_iterations for r in history),
         dofs=Dofs(compat.global_size(model.state.V), driver.vec.size),
         optimization=OptimizationMeasures(
@@ -112,21 +124,52 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
             # the best growth applied to the body at rest: the shape a body grown so takes
             rho_H_from_rest=from_rest.rho_H if from_rest else None,
             hausdorff_from_rest=from_rest.hausdorff if from_rest else None,
-            resumed=resume))
+            resumed=resume),
+        verified=verified)
     io.write_json(out / "summary.json", summary.to_json())
-    rel = exact / rf.objective.target_size
-    if from_rest and abs(from_rest.hausdorff - exact) > max(0.05 * exact,
-                                                            1e-3 * rf.objective.target_size):
+    rel = exact / size
+    if from_rest and changed:
         log.warning("the best growth applied from rest reaches another equilibrium: Hausdorff "
                     "%.4g (%.3g %%) against the optimiser's %.4g: the shape depends on the "
                     "growth path (hausdorff_from_rest in summary.json)", from_rest.hausdorff,
-                    100 * from_rest.hausdorff / rf.objective.target_size, exact)
-    log.info("%s after %d iterations: rho_H %.4g -> %.4g, Hausdorff distance %.4g "
-             "(%.3g %% of the target size)", status, len(history),
-             summary.rho_H_initial or float("nan"), summary.rho_H_final or float("nan"),
-             exact, 100 * rel)
+                    100 * from_rest.hausdorff / size, exact)
+    _report_verified(verified, rel)
+    log.info("%s after %d iterations: %s; self-reported %.3g %% (own mesh, the optimiser's "
+             "path); rho_H %.4g -> %.4g", status, len(history), _verified_text(verified),
+             100 * rel, summary.rho_H_initial or float("nan"),
+             summary.rho_H_final or float("nan"))
     log.info("results in %s: summary.json, history.csv, history.png, shape.png, fields.xdmf",
              out)
     log.info("view: paraview %s, Filters > Warp By Vector (displacement), colour by lambda_hat_1",
              out / "fields.xdmf")
     return RunResult(summary, 1 if failed else 0, model)
+
+
+def _verified_text(verified: Verified | None) -> str:
+    if verified is None:
+        return "not verified (verify.enabled: false)"
+    if verified.relative is None:
+        return f"verification {verified.status}"
+    times = "once" if verified.refine == 1 else f"{verified.refine} times"
+    return (f"verified shape error {100 * verified.relative:.3g} % (mesh refined {times}, "
+            "grown from rest)")
+
+
+def _report_verified(verified: Verified | None, own_relative: float) -> None:
+    """The warning of a run whose verified error exceeds its own by more than a factor 2."""
+    if verified is None:
+        return
+    cause = likely_cause(own_relative, verified)
+    if cause is None:
+        return
+    shown = (f"{100 * verified.relative:.3g} %, {verified.relative / own_relative:.1f} times"
+             if verified.relative is not None and own_relative > 0 else verified.status)
+    if cause == "branch":
+        why = ("likely the branch: the growth grown from rest takes another equilibrium than "
+               "the optimiser's path (hausdorff_from_rest in summary.json)")
+    else:
+        why = ("likely the mesh: the run's mesh does not resolve what its optimum leans on "
+               "(refine mesh.size, grade the mesh towards the clamp, or lengthen "
+               "growth.filter_length)")
+    log.warning("the verified shape error (%s the run's own %.3g %%) is not the run's: %s",
+                shown, 100 * own_relative, why)

@@ -32,6 +32,7 @@ from .sections import (
     OutputConfig,
     SolverConfig,
     TargetConfig,
+    VerifyConfig,
 )
 
 # True while the loader builds a Config (its parts are checked once, when it is whole)
@@ -72,6 +73,7 @@ class Config:
     objective: ObjectiveConfig = option("objective", ObjectiveConfig())
     optimizer: OptimizerConfig = option("optimiser", OptimizerConfig())
     solver: SolverConfig = option("state solver", SolverConfig())
+    verify: VerifyConfig = option("the verified shape error of a run", VerifyConfig())
     output: OutputConfig = option("outputs", OutputConfig())
 
     # ---- derived views used across the package -------------------------------------------

@@ -239,6 +239,16 @@ class SolverConfig:
 
 
 @dataclass(frozen=True)
+class VerifyConfig:
+    enabled: bool = option(
+        "after a run, solve its best growth from rest on the run's mesh refined `refine` "
+        "times and lead with that shape error (summary.json `verified`)", True)
+    refine: int = option(
+        "uniform refinements of the run's mesh for the verification (nested: the growth "
+        "carries over exactly)", 1, ge=1, le=3)
+
+
+@dataclass(frozen=True)
 class OutputConfig:
     dir: str | None = option("output folder (default results/<name>)", None)
     checkpoint_every: int = option("write checkpoint.h5 every this many iterations", 5, ge=1)

@@ -9,6 +9,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..optim.refined import Verified
 from ..status import Outcome
 
 
@@ -75,6 +76,7 @@ class RunSummary:
     config: dict[str, Any] = field(repr=False)
     solve: SolveMeasures | None = None
     optimization: OptimizationMeasures | None = None
+    verified: Verified | None = None  # a run's verified shape error (verify.enabled)
 
     @property
     def relative_error(self) -> float | None:
@@ -91,6 +93,9 @@ class RunSummary:
             if f.name in ("solve", "optimization"):
                 if value is not None:
                     out.update(_plain(value))
+            elif f.name == "verified":
+                if value is not None:
+                    out["verified"] = _plain(value)
             elif f.name == "status":
                 out["status"] = str(value)
             else:
@@ -99,7 +104,7 @@ class RunSummary:
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> RunSummary:
-        names = {f.name for f in dataclasses.fields(cls)} - {"solve", "optimization"}
+        names = {f.name for f in dataclasses.fields(cls)} - {"solve", "optimization", "verified"}
         common: dict[str, Any] = {k: data.get(k) for k in names}
         common["status"] = Outcome.parse(str(data["status"]))
         common["dofs"] = Dofs(**data["dofs"])
@@ -114,7 +119,8 @@ class RunSummary:
             keys = [f.name for f in dataclasses.fields(OptimizationMeasures)]
             measured: dict[str, Any] = {k: data.get(k) for k in keys}
             optimization = OptimizationMeasures(**measured)
-        return cls(**common, solve=solve, optimization=optimization)
+        verified = Verified(**data["verified"]) if data.get("verified") else None
+        return cls(**common, solve=solve, optimization=optimization, verified=verified)
 
 
 def _plain(value: Any) -> Any:

@@ -1,0 +1,98 @@
+"""The verified shape error: a growth judged on a refined model, grown from rest.
+
+A run's own number is measured on the mesh it optimised on, at the equilibrium its warm
+starts followed.  The body a user grows has neither: it starts at rest and is a continuum.
+:func:`verify` carries the growth the body was given (the filtered fields lambda_hat,
+theta_hat) onto the run's mesh refined ``refine`` times - nested, so a Lagrange field of
+the growth's degree carries over exactly - solves the state there from rest by
+continuation, and measures the exact Hausdorff distance to the target at the refined
+model's sample points.  That is the number a run leads with (summary.json ``verified``).
+
+Where the verified error exceeds the run's own by more than :data:`TOLERATED`, the likely
+cause is named (:func:`likely_cause`): the *branch* when the growth solved from rest on the
+run's own mesh already reaches another equilibrium than the optimiser's path, else the
+*mesh* (the run's mesh does not resolve what its optimum leans on).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from .. import compat
+from ..config import Config
+from ..physics.model import ForwardModel
+from ..physics.transfer import interpolate_between_meshes
+from .objective import Objective
+
+log = logging.getLogger(__name__)
+
+TOLERATED = 2.0  # verified / self beyond which a run warns
+
+
+@dataclass(frozen=True)
+class Verified:
+    """summary.json's ``verified``: the growth on the mesh refined ``refine`` times, solved
+    from rest there."""
+
+    hausdorff: float | None  # None where no equilibrium was found from rest
+    relative: float | None  # hausdorff / the refined target's size
+    refine: int
+    dofs: int  # state DOFs of the refined model
+    wall_s: float
+    branch_changed: bool  # from rest on the run's own mesh, another equilibrium than the run's
+    status: str  # "solved", or "failed: <reason>"
+
+    def to_json(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+def refined_config(cfg: Config, refine: int) -> Config:
+    """``cfg`` on its mesh refined ``refine`` more times (nested in the run's mesh)."""
+    return dataclasses.replace(cfg, mesh=dataclasses.replace(cfg.mesh,
+                                                             refine=cfg.mesh.refine + refine))
+
+
+def verify(model: ForwardModel, refine: int, branch_changed: bool = False) -> Verified:
+    """The growth ``model`` is in equilibrium with, on its mesh refined ``refine`` times,
+    solved from rest (collective)."""
+    tic = time.perf_counter()
+    cfg = refined_config(model.cfg, refine)
+    fine = ForwardModel.build(cfg, model.comm)
+    for source, target in zip(model.state.applied.fields, fine.growth.fields):
+        interpolate_between_meshes(source, target)
+    report = fine.state.solve()
+    dofs = compat.global_size(fine.state.V)
+    if not report.converged:
+        log.warning("verification: no equilibrium from rest on the refined mesh: %s",
+                    report.reason)
+        return Verified(None, None, refine, dofs, time.perf_counter() - tic, branch_changed,
+                        f"failed: {report.reason}")
+    objective = Objective(cfg, fine.state)
+    hausdorff = objective.exact_hausdorff()
+    relative = hausdorff / objective.target_size if objective.target_size > 0 else math.inf
+    return Verified(hausdorff, relative, refine, dofs, time.perf_counter() - tic,
+                    branch_changed, "solved")
+
+
+def branch_changed(from_rest: float | None, own: float, target_size: float) -> bool:
+    """Whether the growth solved from rest on the run's own mesh (Hausdorff ``from_rest``)
+    reaches another equilibrium than the optimiser's (``own``): more than 5 % apart, and
+    more than 1e-3 of the target size.  A failed solve from rest counts as changed."""
+    if from_rest is None:
+        return True
+    return abs(from_rest - own) > max(0.05 * own, 1e-3 * target_size)
+
+
+def likely_cause(own_relative: float, verified: Verified) -> str | None:
+    """None when the verified error is within :data:`TOLERATED` of the run's own, else the
+    likely cause: "branch" or "mesh" (module doc)."""
+    if verified.relative is None:
+        return "branch" if verified.branch_changed else "mesh"
+    if verified.relative <= TOLERATED * own_relative:
+        return None
+    return "branch" if verified.branch_changed else "mesh"

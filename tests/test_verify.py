@@ -1,0 +1,113 @@
+"""The verified shape error of a run: the growth carried exactly onto the refined mesh,
+solved from rest there; its fields in summary.json; the warning that names the likely cause
+when it is more than twice the run's own."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+from conftest import CONFIGS, read_json, run_cli
+
+import shapegrowth as sg
+from shapegrowth.optim.refined import Verified, branch_changed, likely_cause, refined_config
+from shapegrowth.physics.transfer import interpolate_between_meshes
+
+ARC = CONFIGS / "tiny" / "beam_arc.yaml"
+SQUARE = CONFIGS / "tiny" / "square_disk.yaml"
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("degree", [1, 2])
+def test_a_growth_carries_over_exactly_onto_the_nested_mesh(degree):
+    """A growth field of the growth space's degree, on the mesh refined once: the same
+    function (its integral and its values at the coarse nodes to round-off)."""
+    cfg = sg.load_config(SQUARE, [f"growth.degree={degree}",
+                                  "growth.eigenvalues.initial=['2 + 0.1*x1*x2 + 0.05*x1', 1.5]"])
+    coarse = sg.build_model(cfg)
+    fine = sg.build_model(refined_config(cfg, 1))
+    assert fine.state.V.dofmap.index_map.size_global > 3 * coarse.state.V.dofmap.index_map.size_global
+    field = coarse.growth.eigenvalues[0]
+    # a field that is not the expression: the coarse nodal values perturbed
+    rng = np.random.default_rng(1)
+    field.x.array[:] += 0.1 * rng.standard_normal(field.x.array.size)
+    field.x.scatter_forward()
+    target = fine.growth.eigenvalues[0]
+    interpolate_between_meshes(field, target)
+    integral = [m.integrate(f) for m, f in ((coarse, field), (fine, target))]
+    assert integral[1] == pytest.approx(integral[0], rel=1e-12)
+    comm = coarse.comm  # every rank asks for the same points: all coarse nodes
+    owned = coarse.growth.space.dofmap.index_map.size_local
+    nodes = np.concatenate(comm.allgather(
+        coarse.growth.space.tabulate_dof_coordinates()[:owned]))
+    values = np.concatenate(comm.allgather(field.x.array[:owned]))
+    back = sg.evaluate_at(target, nodes)[:, 0]
+    assert np.abs(back - values).max() < 1e-12
+
+
+def test_likely_cause_names_the_branch_or_the_mesh():
+    def v(relative, changed):
+        return Verified(0.1, relative, 1, 10, 0.0, changed, "solved")
+
+    assert likely_cause(0.02, v(0.039, False)) is None  # within a factor 2
+    assert likely_cause(0.02, v(0.05, False)) == "mesh"
+    assert likely_cause(0.02, v(0.05, True)) == "branch"
+    assert likely_cause(0.02, Verified(None, None, 1, 10, 0.0, False, "failed: x")) == "mesh"
+    assert not branch_changed(1.02, 1.0, 10.0) and branch_changed(1.2, 1.0, 10.0)
+    assert branch_changed(None, 1.0, 10.0)
+
+
+@pytest.mark.mpi
+def test_every_run_reports_its_verified_error(shared_tmp):
+    assert run_cli("run", ARC, "--out", shared_tmp, "-q", "--set",
+                   "optimizer.max_iterations=4") == 0
+    s = read_json(shared_tmp / "summary.json")
+    v = s["verified"]
+    assert set(v) == {"hausdorff", "relative", "refine", "dofs", "wall_s", "branch_changed",
+                      "status"}
+    assert v["status"] == "solved" and v["refine"] == 1 and not v["branch_changed"]
+    assert v["dofs"] > 4 * s["dofs"]["state"]  # the state on the mesh refined once
+    assert v["relative"] == pytest.approx(v["hausdorff"] / s["target_size"], rel=0.05)
+    summary = sg.RunSummary.from_json(s)
+    assert summary.verified is not None and summary.verified.hausdorff == v["hausdorff"]
+
+
+def test_the_verified_number_is_the_refined_model_solved_from_rest(tmp_path):
+    """The same growth, judged by the study's reference (refined once, from rest), gives
+    the verified number to round-off."""
+    from shapegrowth.commands.study import evaluate_on_reference
+
+    cfg = sg.load_config(ARC, ["optimizer.max_iterations=3"])
+    result = sg.optimize(cfg, tmp_path)
+    judged = evaluate_on_reference(result.model, refined_config(cfg, 1))
+    assert result.summary.verified is not None
+    assert result.summary.verified.hausdorff == pytest.approx(judged["hausdorff_reference"],
+                                                              rel=1e-9)
+
+
+def test_verification_can_be_switched_off(tmp_path):
+    assert run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=2",
+                   "--set", "verify.enabled=false") == 0
+    assert "verified" not in read_json(tmp_path / "summary.json")
+
+
+def test_a_run_far_from_its_verified_error_says_why(tmp_path, monkeypatch, caplog):
+    """The warning names the likely cause; here the verification is replaced by one that
+    reports another branch at more than twice the run's error."""
+    import shapegrowth.commands.run as run
+
+    def far(model, refine, changed):
+        return Verified(1.0, 0.9, refine, 1, 0.0, True, "solved")
+
+    monkeypatch.setattr(run, "verify", far)
+    logger = logging.getLogger("shapegrowth")  # it may not propagate (logs.configure)
+    logger.addHandler(caplog.handler)
+    try:
+        result = sg.optimize(sg.load_config(ARC, ["optimizer.max_iterations=2"]), tmp_path)
+    finally:
+        logger.removeHandler(caplog.handler)
+    own = result.summary.relative_error
+    assert own is not None and 0.9 > 2 * own
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert any("likely the branch" in w and "is not the run's" in w for w in warnings), warnings
