@@ -9,16 +9,20 @@ eigenvectors v_i, residual_strain) and checkpoint.h5.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from .. import compat
 from ..io import files as io
 from ..io.checkpoint import CheckpointFile
 from ..io.plotting import write_frame_png, write_shape_png
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
-from ..optim.driver import Driver, DriverSettings, ProgressLog, RetryFromRest
+from ..optim.driver import Driver, DriverSettings, ProgressLog, Record, RetryFromRest
+from ..optim.levels import level_config
 from ..optim.problem import ReducedFunctional, StateSolveError
 from ..optim.refined import Verified, branch_changed, likely_cause, verify
 from ..physics.model import ForwardModel
@@ -59,16 +63,32 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     chain: the model, its reduced functional J(m), NLopt on J with the checkpoint, the
     retry from rest and the progress log as callbacks."""
     timer = Timer()
-    with timer("forward"):
-        model = ForwardModel.build(cfg)
-    rf = ReducedFunctional(model, timer)
-    callbacks = [ProgressLog(), CheckpointFile(out / "checkpoint.h5", rf,
-                                               cfg.output.checkpoint_every, resume, timer),
-                 RetryFromRest(rf)]
-    driver = Driver(rf, DriverSettings.from_config(cfg), callbacks)
-    result = driver.run()
-    timer.totals["optimizer"] += result.optimizer_seconds
-    status, history = result.outcome, result.history
+    levels = cfg.optimizer.levels
+    history: list[Record] = []
+    previous: tuple[ReducedFunctional, np.ndarray] | None = None
+    for k in range(len(levels)):
+        level_cfg = level_config(cfg, k)
+        with timer("forward"):
+            model = ForwardModel.build(level_cfg)
+        rf = ReducedFunctional(model, timer)
+        if previous is not None:
+            rf.carry_design(*previous)  # exact: the level's mesh is nested in the last one's
+        if len(levels) > 1:
+            log.info("level %d of %d: the mesh refined %d time(s), %d state DOFs", k + 1,
+                     len(levels), levels[k], compat.global_size(model.state.V))
+        path = out / ("checkpoint.h5" if k == 0 else f"checkpoint-level{k}.h5")
+        callbacks = [ProgressLog(), CheckpointFile(path, rf, cfg.output.checkpoint_every,
+                                                   resume and (k == 0 or path.is_file()), timer),
+                     RetryFromRest(rf)]
+        driver = Driver(rf, DriverSettings.from_config(level_cfg), callbacks)
+        result = driver.run()
+        timer.totals["optimizer"] += result.optimizer_seconds
+        history += [dataclasses.replace(r, iteration=len(history) + i, level=k)
+                    for i, r in enumerate(result.history)]
+        previous = (rf, driver.vec.local(result.best))
+        if result.outcome.is_failure:
+            break
+    status = result.outcome
     # leave the state at the best design for the fields and the final numbers
     final = None
     failed = status.is_failure

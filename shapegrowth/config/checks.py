@@ -77,6 +77,7 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     elif any(b < a for a, b in zip(alphas, alphas[1:])):
         errors.append("objective.hausdorff.alpha: a schedule must not decrease (it starts "
                       "smooth and ends sharp), e.g. [100, 300, 1000]")
+    _check_levels(cfg, errors)
     if cfg.solver.continuation.min_step > cfg.solver.continuation.initial_step:
         errors.append("solver.continuation.min_step: must not exceed initial_step")
     for key in cfg.solver.petsc_options:
@@ -86,6 +87,24 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
 
     return dataclasses.replace(cfg, growth=growth,
                                loads=dataclasses.replace(loads, body_force=tuple(body_force)))
+
+
+def _check_levels(cfg: Config, errors: list[str]) -> None:
+    opt = cfg.optimizer
+    levels = opt.levels
+    if not levels or levels[0] < 0 or any(b <= a for a, b in zip(levels, levels[1:])) \
+            or levels[-1] > 3:
+        errors.append(f"optimizer.levels: refinements rising from 0 to at most 3, e.g. [0, 1], "
+                      f"got {list(levels)}")
+    if opt.level_iterations is not None:
+        if len(opt.level_iterations) != len(levels):
+            errors.append(f"optimizer.level_iterations: give {len(levels)} numbers, one per "
+                          "level of optimizer.levels")
+        elif any(n < 1 for n in opt.level_iterations):
+            errors.append("optimizer.level_iterations: each level needs at least 1 iteration")
+    elif 1 < len(levels) > opt.max_iterations:
+        errors.append(f"optimizer.max_iterations: {opt.max_iterations} cannot be shared by "
+                      f"{len(levels)} levels; raise it or give optimizer.level_iterations")
 
 
 def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:

@@ -207,6 +207,13 @@ class OptimizerConfig:
                                "(0: the whole bounds); SLSQP always uses the whole bounds",
                                0.3, ge=0)
     restart_every: int = option("evaluations before the box is re-centred", 10, ge=2)
+    levels: tuple[int, ...] = option(
+        "coarse-to-fine: the mesh's refinements per level, rising from 0, e.g. [0, 1]: "
+        "optimise on the config's mesh, carry the design exactly onto the mesh refined once "
+        "and go on there (later levels at the last alpha of a schedule)", (0,))
+    level_iterations: tuple[int, ...] | None = option(
+        "iterations per level, one per level (replaces max_iterations; default: "
+        "max_iterations shared equally)", None)
 
 
 @dataclass(frozen=True)

@@ -104,7 +104,8 @@ class Checkpoint:
         ck.history = [Record(int(r[0]), float(r[1]), float(r[2]), float(r[3]), float(r[4]),
                              float(r[5]), int(r[6]), float(r[7]),
                              float(r[8]) if len(r) > 8 else nan,
-                             float(r[9]) if len(r) > 9 else nan)
+                             float(r[9]) if len(r) > 9 else nan,
+                             int(r[10]) if len(r) > 10 else 0)
                       for r in data["history"]]
         ck.best_x = data.get("best_x")
         ck.state = data.get("state")

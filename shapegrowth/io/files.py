@@ -83,7 +83,8 @@ def write_fields(path: Path, displacement: dolfinx.fem.Function, growth: Growth,
 
 
 HISTORY_COLUMNS = ("iteration", "objective", "rho_H", "complexity", "hausdorff",
-                   "grad_norm", "newton_iterations", "seconds", "alpha", "optimizer_seconds")
+                   "grad_norm", "newton_iterations", "seconds", "alpha", "optimizer_seconds",
+                   "level")
 
 
 def write_history(out: Path, records, comm: MPI.Comm = MPI.COMM_WORLD) -> None:

@@ -96,6 +96,7 @@ class Record:
     seconds: float
     alpha: float  # the sharpness of rho_H this iteration was evaluated at
     optimizer_seconds: float  # NLopt's own time so far (the run's time outside J and dJ)
+    level: int = 0  # the coarse-to-fine level (optimizer.levels)
 
 
 @dataclass(frozen=True)

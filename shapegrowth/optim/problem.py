@@ -29,6 +29,7 @@ from ..config import Config, resolved
 from ..physics.filters import HelmholtzFilter
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
+from ..physics.transfer import interpolate_between_meshes
 from ..timing import Timer
 from .adjoint import AdjointProblem
 from .objective import Objective, ObjectiveValue
@@ -149,6 +150,16 @@ class ReducedFunctional:
         resumed run continues exactly where the interrupted one was."""
         self._apply(np.ascontiguousarray(m, dtype=float))
         self.model.state.restore(state)
+        self._forget()
+
+    def carry_design(self, source: ReducedFunctional, m: np.ndarray) -> None:
+        """Take ``source``'s design ``m`` as this functional's current design: each design
+        field interpolated onto this mesh (exact on a nested refinement of source's mesh;
+        collective).  The next evaluation applies it."""
+        for k, (rho, mine) in enumerate(zip(source.design, self.design)):
+            rho.x.array[:source.n_owned] = m[k * source.n_owned:(k + 1) * source.n_owned]
+            rho.x.scatter_forward()
+            interpolate_between_meshes(rho, mine)
         self._forget()
 
     def stopping_scale(self) -> float:

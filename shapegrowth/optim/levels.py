@@ -1,0 +1,40 @@
+"""Coarse-to-fine optimisation (``optimizer.levels``): each level optimises on the config's
+mesh refined ``levels[k]`` times, starting from the design the last level ended with, carried
+exactly (the refined meshes are nested in the coarse one: a Lagrange field of the design's
+degree is the same function there).  The coarse levels are cheap and find the large-scale
+design; the fine ones resolve what it leans on.  Later levels run at the last alpha of a
+schedule (the schedule's smooth start is the coarse level's job)."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from ..config import Config
+
+
+def level_budgets(cfg: Config) -> tuple[int, ...]:
+    """Iterations per level: ``optimizer.level_iterations``, or ``max_iterations`` shared
+    equally (the coarser levels take the remainder)."""
+    opt = cfg.optimizer
+    if opt.level_iterations is not None:
+        return tuple(opt.level_iterations)
+    n, total = len(opt.levels), opt.max_iterations
+    return tuple(total // n + (1 if k < total % n else 0) for k in range(n))
+
+
+def level_config(cfg: Config, k: int) -> Config:
+    """The config of level ``k``: its mesh, its budget and (after the first) the last alpha.
+    A single level at refinement 0 is ``cfg`` itself."""
+    opt, mesh = cfg.optimizer, cfg.mesh
+    refine, budget = opt.levels[k], level_budgets(cfg)[k]
+    changes: dict[str, Any] = {}
+    if refine:
+        changes["mesh"] = dataclasses.replace(mesh, refine=mesh.refine + refine)
+    if budget != opt.max_iterations:
+        changes["optimizer"] = dataclasses.replace(opt, max_iterations=budget)
+    hausdorff = cfg.objective.hausdorff
+    if k > 0 and len(hausdorff.alphas) > 1:
+        last = dataclasses.replace(hausdorff, alpha=hausdorff.alphas[-1])
+        changes["objective"] = dataclasses.replace(cfg.objective, hausdorff=last)
+    return dataclasses.replace(cfg, **changes) if changes else cfg
