@@ -21,7 +21,14 @@ from ..io import files as io
 from ..io.checkpoint import CheckpointFile
 from ..io.plotting import write_frame_png, write_shape_png
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
-from ..optim.driver import Driver, DriverSettings, ProgressLog, Record, RetryFromRest
+from ..optim.driver import (
+    Driver,
+    DriverSettings,
+    FromRestEvery,
+    ProgressLog,
+    Record,
+    RetryFromRest,
+)
 from ..optim.levels import level_config
 from ..optim.problem import ReducedFunctional, StateSolveError
 from ..optim.refined import Verified, branch_changed, likely_cause, verify
@@ -79,7 +86,7 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         path = out / ("checkpoint.h5" if k == 0 else f"checkpoint-level{k}.h5")
         callbacks = [ProgressLog(), CheckpointFile(path, rf, cfg.output.checkpoint_every,
                                                    resume and (k == 0 or path.is_file()), timer),
-                     RetryFromRest(rf)]
+                     RetryFromRest(rf), FromRestEvery(rf, cfg.optimizer.from_rest_every)]
         driver = Driver(rf, DriverSettings.from_config(level_cfg), callbacks)
         result = driver.run()
         timer.totals["optimizer"] += result.optimizer_seconds

@@ -19,6 +19,9 @@ reference error is the discretisation error of the state alone.  On a non-nested
 finer mesh a growth field with a sharp peak is itself changed by interpolation;
 docs/TRADEOFFS.md measures the difference.
 
+Every point also verifies itself as every run does (``verify.*``: its own mesh refined
+``verify.refine`` times, from rest): ``relative_error_verified``.
+
 Resumable: a point with its ``row.json`` is read, not run again; a point with a
 checkpoint but no row is resumed.  Under mpirun every point runs on all ranks.
 """
@@ -53,7 +56,7 @@ FINEST = {"mesh.size": min, "mesh.layers": max, "model.degree": max,
           "model.quadrature_degree": max, "growth.degree": max}
 COLUMNS = ("dofs_state", "dofs_design", "iterations", "wall_time_s", "rho_H_final",
            "hausdorff_final", "hausdorff_reference", "peak_memory_mb", "target_size",
-           "relative_error_reference", "status")
+           "relative_error_reference", "relative_error_verified", "status")
 
 
 @dataclass(frozen=True)
@@ -146,7 +149,9 @@ def run_study(config: Path, overrides: list[str], sweeps: list[Sweep], out: Path
                "iterations": s.iterations, "wall_time_s": wall,
                "rho_H_final": s.rho_H_final, "hausdorff_final": s.hausdorff_final,
                **judged, "peak_memory_mb": peak, "target_size": s.target_size,
-               "status": str(s.status), "resumed": resume}
+               "status": str(s.status), "resumed": resume,
+               # the run's own verification (its mesh refined verify.refine times, from rest)
+               "relative_error_verified": s.verified.relative if s.verified else None}
         row["relative_error_reference"] = row["hausdorff_reference"] / row["target_size"]
         io.write_json(done, row, comm)
         log.info("  %s: %d iterations, %.1f s, Hausdorff %.4g here, %.4g on the reference "

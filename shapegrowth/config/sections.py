@@ -207,6 +207,9 @@ class OptimizerConfig:
                                "(0: the whole bounds); SLSQP always uses the whole bounds",
                                0.3, ge=0)
     restart_every: int = option("evaluations before the box is re-centred", 10, ge=2)
+    from_rest_every: int = option(
+        "the physical branch: every this many iterations the next state is solved from rest "
+        "(as the body grows) and the warm starts go on from there (0: never)", 0, ge=0)
     levels: tuple[int, ...] = option(
         "coarse-to-fine: the mesh's refinements per level, rising from 0, e.g. [0, 1]: "
         "optimise on the config's mesh, carry the design exactly onto the mesh refined once "

@@ -207,6 +207,21 @@ class RetryFromRest(Callback):
         return self.problem.evaluate(m, gradient=True)
 
 
+class FromRestEvery(Callback):
+    """The physical branch: after every ``every``-th evaluation the state is dropped, so the
+    next one is solved from rest, as the body grows, and the warm starts continue from that
+    equilibrium.  A thin body can have several equilibria for one growth; the optimiser's
+    warm starts follow their own path among them, and only the one reached from rest is
+    what growing the body does (docs/TRADEOFFS.md)."""
+
+    def __init__(self, problem: Restartable, every: int):
+        self.problem, self.every = problem, every
+
+    def evaluated(self, step: Step) -> None:
+        if self.every and (step.iteration + 1) % self.every == 0:
+            self.problem.restart_from_rest()
+
+
 class Restartable(DesignProblem, Protocol):
     def restart_from_rest(self, step_scale: float = 1.0) -> None: ...
 
