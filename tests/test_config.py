@@ -63,7 +63,7 @@ def test_an_alpha_schedule_is_a_list(tmp_path):
     ("model: {dim: 2}", "model.dim", "rectangle"),
     ("mesh: {size: 0.05, clamp_size: 0.1}", "mesh.clamp_size", "smaller than mesh.size"),
     ("boundary: {clamp: rigid}\nmesh: {size: 0.05, clamp_size: 0.01}", "mesh.clamp_size",
-     "only a box clamped at x1_min"),
+     "box clamped at x1_min, tube clamped at x1_min"),
     ("loads: {traction: {x9_max: [0, 0, 1]}}", "loads.traction.x9_max", "not a boundary"),
     ("objective: {hausdorff: {alpha: [1000, 300]}}", "objective.hausdorff.alpha",
      "must not decrease"),

@@ -136,6 +136,43 @@ def test_box_graded_towards_its_clamp(shared_tmp):
     assert volume == pytest.approx(1.0 * 0.1 * 0.02, rel=1e-12)
 
 
+GRADED_BODIES = {  # kind: (parameters, clamp, mesh size, clamp size, distance from the clamp)
+    "tube": ({"length": 1.0, "radius": 0.2, "thickness": 0.05}, "x1_min", 0.1, 0.02,
+             lambda x: x[:, 0]),
+    "annulus": ({"radius": 1.0, "inner_radius": 0.2, "thickness": 0.05}, "inner_rim", 0.3,
+                0.05, lambda x: np.hypot(x[:, 0], x[:, 1]) - 0.2),
+    "cylinder_shell": ({"radius": 1.0, "height": 0.7, "thickness": 0.05}, "bottom_rim", 0.2,
+                       0.04, lambda x: x[:, 2]),
+}
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("kind", sorted(GRADED_BODIES))
+def test_every_clamped_body_grades_towards_its_clamp(kind, shared_tmp):
+    """mesh.clamp_size on the tube, the annulus and the cylinder shell: the cells at the
+    clamp far smaller than those away from it, the body's volume unchanged."""
+    params, clamp, size, h_min, distance = GRADED_BODIES[kind]
+    meshes = [load_domain(config(kind, params, size, shared_tmp, clamp=clamp, **extra)).mesh
+              for extra in ({}, {"clamp_size": h_min})]
+    comm = meshes[0].comm
+    near, far, volumes = [], [], []
+    for mesh in meshes:
+        n = mesh.topology.index_map(3).size_local
+        x = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, 4)[:n]]
+        d = distance(x.reshape(-1, 3)).reshape(-1, 4)
+        edge = d.max(axis=1) - d.min(axis=1)  # each cell's extent away from the clamp
+        touching = np.abs(d).min(axis=1) < 1e-9  # a vertex on the clamp
+        # the mean extent of the cells at the clamp, the largest far from it
+        at = comm.allreduce(np.array([edge[touching].sum(), touching.sum()]), MPI.SUM)
+        near.append(at[0] / at[1])
+        far.append(comm.allreduce(edge[d.min(axis=1) > 0.5].max(initial=0.0), MPI.MAX))
+        volumes.append(comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(
+            dolfinx.fem.Constant(mesh, 1.0) * ufl.dx)), MPI.SUM))
+    assert near[1] < 0.5 * near[0]  # graded: smaller cells at the clamp
+    assert far[1] > 0.5 * far[0]  # and the uniform size away from it
+    assert volumes[1] == pytest.approx(volumes[0], rel=1e-2)  # polygonal rims: finer is truer
+
+
 @pytest.mark.mpi
 def test_refined_mesh_is_nested_and_carries_p1_fields_exactly(shared_tmp):
     """mesh.refine: 8x the cells, the coarse vertices kept, a coarse P1 field exact on it."""

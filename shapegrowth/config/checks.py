@@ -21,6 +21,11 @@ if TYPE_CHECKING:
     from .root import Config
 
 
+# bodies whose mesh can be graded towards their clamp (mesh.clamp_size)
+GRADED = (("box", "x1_min"), ("tube", "x1_min"), ("annulus", "inner_rim"),
+          ("cylinder_shell", "bottom_rim"))
+
+
 def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     """Cross-field rules and dimension-dependent defaults."""
     geo, dim = cfg.geometry, cfg.model.dim
@@ -48,9 +53,10 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
                       f"(allowed: {', '.join(allowed)})")
 
     if cfg.mesh.clamp_size is not None:
-        if kind != "box" or bc != "x1_min":
-            errors.append("mesh.clamp_size: only a box clamped at x1_min is graded towards its "
-                          "clamp; remove the key")
+        if (kind, bc) not in GRADED:
+            graded = ", ".join(f"{k} clamped at {c}" for k, c in GRADED)
+            errors.append(f"mesh.clamp_size: grades the mesh towards a clamp: {graded}; "
+                          "remove the key")
         elif cfg.mesh.clamp_size >= cfg.mesh.size:
             errors.append("mesh.clamp_size: must be smaller than mesh.size (or left out)")
 

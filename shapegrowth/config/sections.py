@@ -71,8 +71,9 @@ class MeshConfig:
     size: float = option("target element size", gt=0)
     layers: int = option("elements through the wall or thickness (layered bodies)", 2, ge=1)
     clamp_size: float | None = option(
-        "box clamped at x1_min: element size at the clamp, growing to `size` away from it "
-        "(resolves the sharp bend a clamped end needs); default: uniform `size`", None, gt=0)
+        "element size at the clamp (box or tube at x1_min, annulus at inner_rim, "
+        "cylinder_shell at bottom_rim), growing to `size` away from it (resolves the sharp "
+        "bend a clamped end needs); default: uniform `size`", None, gt=0)
     grading: float = option("growth of the element size per unit distance from the clamp "
                             "(with clamp_size)", 0.5, gt=0)
     refine: int = option("uniform refinements of the built mesh (each cell split in 4 in 2D, "

@@ -186,18 +186,22 @@ def _box(gmsh, cfg: Config, h: float) -> None:
     occ.synchronize()
     gmsh.model.mesh.setSize(gmsh.model.getEntities(0), h)
     if cfg.mesh.clamp_size is not None:
-        _graded_towards_x1_min(gmsh, rect, cfg.mesh.clamp_size, h, cfg.mesh.grading)
+        edges = [tag for dim, tag in gmsh.model.getBoundary([(2, rect)], oriented=False)
+                 if abs(gmsh.model.occ.getCenterOfMass(dim, tag)[0]) < 1e-12]
+        _graded_towards(gmsh, edges, cfg.mesh.clamp_size, h, cfg.mesh.grading)
 
 
-def _graded_towards_x1_min(gmsh, surface: int, h_min: float, h: float, rate: float) -> None:
-    """Element size h_min on the edge X1 = 0 of the extruded ``surface``, growing by
-    ``rate`` per unit distance up to h (the extrusion carries the graded triangles
-    through the thickness)."""
-    edges = [tag for dim, tag in gmsh.model.getBoundary([(2, surface)], oriented=False)
-             if abs(gmsh.model.occ.getCenterOfMass(dim, tag)[0]) < 1e-12]
+# Grading towards the clamp (``mesh.clamp_size``, ``mesh.grading``): the element size is
+# clamp_size at the clamped edge and grows by ``grading`` per unit distance up to mesh.size.
+# An unstructured section (box, annulus) is graded by a size field and extruded through the
+# thickness; a structured wall (tube, cylinder shell) by the heights of its extruded layers.
+
+def _graded_towards(gmsh, curves: list[int], h_min: float, h: float, rate: float) -> None:
+    """Size h_min on ``curves`` of the section, growing by ``rate`` per unit distance up to
+    h (the extrusion carries the graded triangles through the thickness)."""
     field = gmsh.model.mesh.field
     distance = field.add("Distance")
-    field.setNumbers(distance, "CurvesList", edges)
+    field.setNumbers(distance, "CurvesList", curves)
     field.setNumber(distance, "NumPointsPerCurve", 100)
     ramp = field.add("MathEval")
     field.setString(ramp, "F", f"min({h}, {h_min} + {rate} * F{distance})")
@@ -216,6 +220,30 @@ def _annulus(gmsh, cfg: Config, h: float) -> None:
     occ.extrude(ring, 0, 0, g.thickness, numElements=[cfg.mesh.layers])
     occ.synchronize()
     gmsh.model.mesh.setSize(gmsh.model.getEntities(0), h)
+    if cfg.mesh.clamp_size is not None:  # towards the inner rim, the clamp
+        rim = [tag for dim, tag in gmsh.model.getBoundary(ring, oriented=False)
+               if _extent(gmsh, dim, tag) < 2.5 * g.inner_radius]
+        _graded_towards(gmsh, rim, cfg.mesh.clamp_size, h, cfg.mesh.grading)
+
+
+def _extent(gmsh, dim: int, tag: int) -> float:
+    box = gmsh.model.getBoundingBox(dim, tag)
+    return max(box[3] - box[0], box[4] - box[1], box[5] - box[2])
+
+
+def _graded_layers(extent: float, h: float, cfg: Config) -> tuple[list[int], list[float]]:
+    """Layers of an extrusion over ``extent`` from the clamped end: uniform of about h, or,
+    with mesh.clamp_size, clamp_size at the start growing by mesh.grading per unit length
+    up to h (gmsh's numElements and cumulative heights)."""
+    if cfg.mesh.clamp_size is None:
+        return [_count(extent, h)], []
+    ends, x = [], 0.0
+    while x < extent * (1 - 1e-9):
+        x += min(h, cfg.mesh.clamp_size + cfg.mesh.grading * x)
+        ends.append(x)
+    if len(ends) > 1 and extent - ends[-2] < 0.5 * (ends[-1] - ends[-2]):
+        ends.pop(-2)  # no sliver at the far end
+    return [1] * len(ends), [min(e / extent, 1.0) for e in ends[:-1]] + [1.0]
 
 
 def _structured_ring(gmsh, r_in: float, r_out: float, n_around: int, n_wall: int,
@@ -254,8 +282,9 @@ def _tube(gmsh, cfg: Config, h: float) -> None:
     n_around = _count(2 * math.pi * g.radius, h, minimum=8)
     surfaces = _structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
                                 cfg.mesh.layers, plane="yz")
+    count, heights = _graded_layers(g.length, h, cfg)  # from X1 = 0, the clamp
     gmsh.model.geo.extrude([(2, s) for s in surfaces], g.length, 0, 0,
-                           numElements=[_count(g.length, h)])
+                           numElements=count, heights=heights)
     gmsh.model.geo.synchronize()
 
 
@@ -264,8 +293,9 @@ def _cylinder_shell(gmsh, cfg: Config, h: float) -> None:
     n_around = _count(2 * math.pi * g.radius, h, minimum=8)
     surfaces = _structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
                                 cfg.mesh.layers, plane="xy")
+    count, heights = _graded_layers(g.height, h, cfg)  # from X3 = 0, the bottom rim
     gmsh.model.geo.extrude([(2, s) for s in surfaces], 0, 0, g.height,
-                           numElements=[_count(g.height, h)])
+                           numElements=count, heights=heights)
     gmsh.model.geo.synchronize()
 
 
