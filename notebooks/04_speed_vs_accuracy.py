@@ -45,7 +45,9 @@ if rank0:  # a study resumes from what it finds: start afresh
 MPI.COMM_WORLD.barrier()
 sweeps = [Sweep.parse("mesh.size=0.2,0.1"), Sweep.parse("model.degree=1,2")]
 rows = run_study(CONFIGS / "beam_wave.yaml",
-                 ["mesh.layers=1", "optimizer.max_iterations=25"], sweeps, OUT, [])
+                 ["mesh.layers=1", "optimizer.max_iterations=25",  # one model per point:
+                  "optimizer.levels=[0]", "optimizer.level_iterations=null"],  # one level
+                 sweeps, OUT, [])
 
 # %% [markdown]
 # `study.csv` has one row per grid point. `hausdorff_final` is what the model says of

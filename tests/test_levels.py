@@ -28,6 +28,13 @@ def test_budgets_and_level_configs():
     assert last.optimizer.max_iterations == 3
     given = sg.load_config(ARC, ["optimizer.levels=[0, 1]", "optimizer.level_iterations=[7, 2]"])
     assert level_budgets(given) == (7, 2)
+    # max_iterations is the whole budget: a larger split is scaled down in proportion
+    capped = sg.load_config(ARC, ["optimizer.levels=[0, 1]", "optimizer.max_iterations=10",
+                                  "optimizer.level_iterations=[240, 60]"])
+    assert level_budgets(capped) == (8, 2)
+    smoke = sg.load_config(ARC, ["optimizer.levels=[0, 1]", "optimizer.max_iterations=2",
+                                 "optimizer.level_iterations=[240, 60]"])
+    assert level_budgets(smoke) == (1, 1)
     single = sg.load_config(ARC)
     assert level_config(single, 0) is single  # one level is the config itself
     with pytest.raises(sg.ConfigError, match="optimizer.levels"):

@@ -66,9 +66,10 @@ def _from_rest(model: ForwardModel, rf: ReducedFunctional):
 
 
 def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
-    """Optimise ``cfg``'s growth and write every output to ``out`` (module doc).  The
-    chain: the model, its reduced functional J(m), NLopt on J with the checkpoint, the
-    retry from rest and the progress log as callbacks."""
+    """Optimise ``cfg``'s growth and write every output to ``out`` (module doc).  Per level
+    of ``optimizer.levels`` (one without): the model, its reduced functional J(m) from the
+    last level's design, NLopt on J with the progress log, the checkpoint, the retry from
+    rest and the physical branch as callbacks; then the best growth verified."""
     timer = Timer()
     levels = cfg.optimizer.levels
     history: list[Record] = []
@@ -81,8 +82,9 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         if previous is not None:
             rf.carry_design(*previous)  # exact: the level's mesh is nested in the last one's
         if len(levels) > 1:
-            log.info("level %d of %d: the mesh refined %d time(s), %d state DOFs", k + 1,
-                     len(levels), levels[k], compat.global_size(model.state.V))
+            log.info("level %d of %d: the mesh refined %d time(s), %d state DOFs, %d "
+                     "iterations", k + 1, len(levels), levels[k],
+                     compat.global_size(model.state.V), level_cfg.optimizer.max_iterations)
         path = out / ("checkpoint.h5" if k == 0 else f"checkpoint-level{k}.h5")
         callbacks = [ProgressLog(), CheckpointFile(path, rf, cfg.output.checkpoint_every,
                                                    resume and (k == 0 or path.is_file()), timer),

@@ -108,9 +108,9 @@ def _check_levels(cfg: Config, errors: list[str]) -> None:
                           "level of optimizer.levels")
         elif any(n < 1 for n in opt.level_iterations):
             errors.append("optimizer.level_iterations: each level needs at least 1 iteration")
-    elif 1 < len(levels) > opt.max_iterations:
+    if 1 < len(levels) > opt.max_iterations:
         errors.append(f"optimizer.max_iterations: {opt.max_iterations} cannot be shared by "
-                      f"{len(levels)} levels; raise it or give optimizer.level_iterations")
+                      f"{len(levels)} levels (one iteration each at least); raise it")
 
 
 def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:

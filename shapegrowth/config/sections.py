@@ -216,8 +216,8 @@ class OptimizerConfig:
         "optimise on the config's mesh, carry the design exactly onto the mesh refined once "
         "and go on there (later levels at the last alpha of a schedule)", (0,))
     level_iterations: tuple[int, ...] | None = option(
-        "iterations per level, one per level (replaces max_iterations; default: "
-        "max_iterations shared equally)", None)
+        "how max_iterations is shared by the levels, one number per level (scaled down in "
+        "proportion where they add up to more than max_iterations); default: equally", None)
 
 
 @dataclass(frozen=True)

@@ -14,13 +14,20 @@ from ..config import Config
 
 
 def level_budgets(cfg: Config) -> tuple[int, ...]:
-    """Iterations per level: ``optimizer.level_iterations``, or ``max_iterations`` shared
-    equally (the coarser levels take the remainder)."""
+    """Iterations per level.  ``optimizer.max_iterations`` is the whole budget, shared
+    equally, or as ``optimizer.level_iterations`` says - scaled down in proportion (at
+    least one per level) where those add up to more; the coarser levels take what rounding
+    leaves."""
     opt = cfg.optimizer
-    if opt.level_iterations is not None:
-        return tuple(opt.level_iterations)
-    n, total = len(opt.levels), opt.max_iterations
-    return tuple(total // n + (1 if k < total % n else 0) for k in range(n))
+    n, total = len(opt.levels), max(opt.max_iterations, len(opt.levels))
+    shares = opt.level_iterations
+    if shares is None:
+        return tuple(total // n + (1 if k < total % n else 0) for k in range(n))
+    if sum(shares) <= total:
+        return tuple(shares)
+    scaled = [max(1, int(s * total / sum(shares))) for s in shares]
+    scaled[0] += total - sum(scaled)  # what rounding leaves (may take back from level 0)
+    return tuple(max(1, s) for s in scaled)
 
 
 def level_config(cfg: Config, k: int) -> Config:
