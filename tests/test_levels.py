@@ -88,3 +88,30 @@ def test_a_run_through_two_levels_and_its_resume(shared_tmp):
     again = read_json(shared_tmp / "summary.json")
     assert again["objective_final"] == pytest.approx(s["objective_final"], rel=1e-10)
     assert again["resumed"]
+
+
+def test_a_level_without_one_state_leaves_the_last_levels_result(tmp_path, monkeypatch):
+    """The fine level cannot grow the carried design (forced here): the run is reported
+    failed with the reason, and ends with the coarse level's best design, its fields and
+    its verified number - nothing computed is lost."""
+    from shapegrowth.optim.problem import ReducedFunctional, StateSolveError
+    from shapegrowth.physics.state import SolveReport
+
+    real = ReducedFunctional.evaluate
+
+    def no_state_on_level_1(self, m, gradient=True):
+        if self.model.cfg.mesh.refine == 1:
+            raise StateSolveError(SolveReport(converged=False, reason="no equilibrium (forced)"))
+        return real(self, m, gradient)
+
+    monkeypatch.setattr(ReducedFunctional, "evaluate", no_state_on_level_1)
+    cfg = sg.load_config(ARC, ["optimizer.levels=[0, 1]", "optimizer.level_iterations=[3, 2]"])
+    result = sg.optimize(cfg, tmp_path)
+    s = result.summary
+    assert result.exit_status == 1 and s.status.is_failure
+    assert str(s.status).startswith("failed: level 2 of 2: state solve failed at iteration 0")
+    assert s.iterations == 3 and s.dofs.state == compat.global_size(
+        sg.build_model(sg.load_config(ARC)).state.V)
+    assert s.objective_final is not None and s.verified is not None
+    assert s.verified.status == "solved"
+    assert (tmp_path / "fields.xdmf").is_file()

@@ -23,6 +23,7 @@ from ..io.plotting import write_frame_png, write_shape_png
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
 from ..optim.driver import (
     Driver,
+    DriverResult,
     DriverSettings,
     FromRestEvery,
     ProgressLog,
@@ -34,6 +35,7 @@ from ..optim.problem import ReducedFunctional, StateSolveError
 from ..optim.refined import Verified, branch_changed, likely_cause, verify
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
+from ..status import Outcome
 from ..timing import Timer
 from .solve import base_summary
 
@@ -74,6 +76,8 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     levels = cfg.optimizer.levels
     history: list[Record] = []
     previous: tuple[ReducedFunctional, np.ndarray] | None = None
+    reached: tuple[ForwardModel, ReducedFunctional, Driver, DriverResult] | None = None
+    failure: Outcome | None = None
     for k in range(len(levels)):
         level_cfg = level_config(cfg, k)
         with timer("forward"):
@@ -94,10 +98,20 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         timer.totals["optimizer"] += result.optimizer_seconds
         history += [dataclasses.replace(r, iteration=len(history) + i, level=k)
                     for i, r in enumerate(result.history)]
+        if result.outcome.is_failure and not result.history and reached is not None:
+            # not one state on this level: the last level's result is the run's (no
+            # computed result is lost), the run is reported failed with the reason
+            log.warning("level %d of %d: %s; the run ends with level %d's best design",
+                        k + 1, len(levels), result.outcome.reason, k)
+            failure = Outcome.failed(f"level {k + 1} of {len(levels)}: "
+                                     f"{result.outcome.reason}")
+            model, rf, driver, result = reached
+            break
+        reached = (model, rf, driver, result)
         previous = (rf, driver.vec.local(result.best))
         if result.outcome.is_failure:
             break
-    status = result.outcome
+    status = failure or result.outcome
     # leave the state at the best design for the fields and the final numbers
     final = None
     failed = status.is_failure
