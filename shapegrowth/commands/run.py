@@ -21,15 +21,8 @@ from ..io import files as io
 from ..io.checkpoint import CheckpointFile
 from ..io.plotting import write_frame_png, write_shape_png
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
-from ..optim.driver import (
-    Driver,
-    DriverResult,
-    DriverSettings,
-    FromRestEvery,
-    ProgressLog,
-    Record,
-    RetryFromRest,
-)
+from ..optim.callbacks import FromRestEvery, ProgressLog, RetryFromRest
+from ..optim.driver import Driver, DriverResult, DriverSettings, Record
 from ..optim.levels import level_config
 from ..optim.problem import ReducedFunctional, StateSolveError
 from ..optim.refined import Verified, branch_changed, likely_cause, verify

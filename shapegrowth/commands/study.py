@@ -44,8 +44,8 @@ from .. import compat
 from ..config import Config, ConfigError, load
 from ..io import files as io
 from ..optim.objective import Objective
+from ..optim.refined import grown_from_rest
 from ..physics.model import ForwardModel
-from ..physics.transfer import interpolate_between_meshes
 from ..timing import peak_memory_mb, reset_peak_memory
 from .run import run_optimization
 
@@ -104,10 +104,7 @@ def reference_overrides(sweeps: list[Sweep], extra: list[str]) -> list[str]:
 
 def evaluate_on_reference(model: ForwardModel, reference: Config) -> dict[str, Any]:
     """The exact Hausdorff distance of ``model``'s applied growth, solved on ``reference``."""
-    ref = ForwardModel.build(reference, model.comm)
-    for source, target in zip(model.state.applied.fields, ref.growth.fields):
-        interpolate_between_meshes(source, target)
-    report = ref.state.solve()
+    ref, report = grown_from_rest(model, reference)
     if not report.converged:
         return {"hausdorff_reference": math.nan, "reference_dofs": compat.global_size(ref.state.V),
                 "reference_status": f"failed: {report.reason}"}

@@ -124,13 +124,7 @@ class RunSummary:
 
 
 def _plain(value: Any) -> Any:
-    """JSON-ready: dataclasses to mappings, tuples to lists, numpy numbers to Python's."""
+    """A dataclass as a mapping (recursively); write_json makes the rest JSON-ready."""
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if hasattr(value, "item") and callable(value.item):  # numpy scalars and 0-d arrays
-        return value.item()
+        return dataclasses.asdict(value)
     return value

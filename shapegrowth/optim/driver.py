@@ -4,8 +4,8 @@ The driver sees only a :class:`DesignProblem` (the reduced functional's interfac
 size, bounds, current design, J and dJ, the alpha of a schedule and the scale of its
 stopping test) and a list of :class:`Callback` objects, in the spirit of pyadjoint's
 ``ReducedFunctional`` and its ``eval_cb_post``: the checkpoint file and exact resume
-(io/checkpoint.py), the retry of a failed state from rest (:class:`RetryFromRest`) and the
-progress log (:class:`ProgressLog`) are callbacks; none of them changes the iterates.
+(io/checkpoint.py), and the progress log, the retry of a failed state from rest and the
+physical branch (optim/callbacks.py) are callbacks.
 
 L-BFGS keeps a few vector pairs, so its own work is O(n) per iteration (1.6 ms at 10^4
 design DOFs, benchmarks/optimizer_cost.py); SLSQP's dense quasi-Newton matrix costs O(n^2)
@@ -184,46 +184,6 @@ class DriverSettings:
         return cls(cfg.name, o.algorithm, max(o.max_iterations, 1),
                    tuple(cfg.objective.hausdorff.alphas), o.move_limit, o.restart_every,
                    o.ftol_rel, o.xtol_rel)
-
-
-class ProgressLog(Callback):
-    """One log line per evaluation (the table the run prints)."""
-
-    def evaluated(self, step: Step) -> None:
-        log.info("%s%s", line(step.record), "  (replayed)" if step.replayed else "")
-
-
-class RetryFromRest(Callback):
-    """A state solve that fails on the warm start is tried once more from rest, with load
-    steps a quarter of the configured first step."""
-
-    def __init__(self, problem: Restartable, step_scale: float = 0.25):
-        self.problem, self.step_scale = problem, step_scale
-
-    def recover(self, iteration: int, m: np.ndarray, error: StateSolveError) -> Evaluation | None:
-        log.warning("iteration %d: %s; retrying from rest with smaller load steps", iteration,
-                    error)
-        self.problem.restart_from_rest(self.step_scale)
-        return self.problem.evaluate(m, gradient=True)
-
-
-class FromRestEvery(Callback):
-    """The physical branch: after every ``every``-th evaluation the state is dropped, so the
-    next one is solved from rest, as the body grows, and the warm starts continue from that
-    equilibrium.  A thin body can have several equilibria for one growth; the optimiser's
-    warm starts follow their own path among them, and only the one reached from rest is
-    what growing the body does (docs/TRADEOFFS.md)."""
-
-    def __init__(self, problem: Restartable, every: int):
-        self.problem, self.every = problem, every
-
-    def evaluated(self, step: Step) -> None:
-        if self.every and (step.iteration + 1) % self.every == 0:
-            self.problem.restart_from_rest()
-
-
-class Restartable(DesignProblem, Protocol):
-    def restart_from_rest(self, step_scale: float = 1.0) -> None: ...
 
 
 class Driver:
@@ -411,8 +371,3 @@ class Driver:
             if len(self.history) == start:
                 break
         return x, code
-
-
-def line(r: Record) -> str:
-    return (f"{r.iteration:5d} {r.objective:13.6e} {r.rho_H:13.6e} {r.hausdorff:11.4e} "
-            f"{r.grad_norm:10.3e} {r.newton_iterations:6d} {r.seconds:9.1f}")

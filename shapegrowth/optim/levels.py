@@ -11,6 +11,7 @@ import dataclasses
 from typing import Any
 
 from ..config import Config
+from .refined import refined_config
 
 
 def level_budgets(cfg: Config) -> tuple[int, ...]:
@@ -33,11 +34,11 @@ def level_budgets(cfg: Config) -> tuple[int, ...]:
 def level_config(cfg: Config, k: int) -> Config:
     """The config of level ``k``: its mesh, its budget and (after the first) the last alpha.
     A single level at refinement 0 is ``cfg`` itself."""
-    opt, mesh = cfg.optimizer, cfg.mesh
+    opt = cfg.optimizer
     refine, budget = opt.levels[k], level_budgets(cfg)[k]
     changes: dict[str, Any] = {}
     if refine:
-        changes["mesh"] = dataclasses.replace(mesh, refine=mesh.refine + refine)
+        changes["mesh"] = refined_config(cfg, refine).mesh
     if budget != opt.max_iterations:
         changes["optimizer"] = dataclasses.replace(opt, max_iterations=budget)
     hausdorff = cfg.objective.hausdorff

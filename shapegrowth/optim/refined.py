@@ -21,11 +21,11 @@ import logging
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
 
 from .. import compat
 from ..config import Config
 from ..physics.model import ForwardModel
+from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
 from .objective import Objective
 
@@ -47,9 +47,6 @@ class Verified:
     branch_changed: bool  # from rest on the run's own mesh, another equilibrium than the run's
     status: str  # "solved", or "failed: <reason>"
 
-    def to_json(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
-
 
 def refined_config(cfg: Config, refine: int) -> Config:
     """``cfg`` on its mesh refined ``refine`` more times (nested in the run's mesh)."""
@@ -57,15 +54,22 @@ def refined_config(cfg: Config, refine: int) -> Config:
                                                              refine=cfg.mesh.refine + refine))
 
 
+def grown_from_rest(model: ForwardModel, cfg: Config) -> tuple[ForwardModel, SolveReport]:
+    """The growth ``model`` is in equilibrium with, carried onto the discretisation of
+    ``cfg`` (exactly where its mesh is nested in ``model``'s) and solved there from rest
+    (collective): the verification's model, and the study's reference."""
+    other = ForwardModel.build(cfg, model.comm)
+    for source, target in zip(model.state.applied.fields, other.growth.fields):
+        interpolate_between_meshes(source, target)
+    return other, other.state.solve()
+
+
 def verify(model: ForwardModel, refine: int, branch_changed: bool = False) -> Verified:
     """The growth ``model`` is in equilibrium with, on its mesh refined ``refine`` times,
     solved from rest (collective)."""
     tic = time.perf_counter()
     cfg = refined_config(model.cfg, refine)
-    fine = ForwardModel.build(cfg, model.comm)
-    for source, target in zip(model.state.applied.fields, fine.growth.fields):
-        interpolate_between_meshes(source, target)
-    report = fine.state.solve()
+    fine, report = grown_from_rest(model, cfg)
     dofs = compat.global_size(fine.state.V)
     if not report.converged:
         log.warning("verification: no equilibrium from rest on the refined mesh: %s",
