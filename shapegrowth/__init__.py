@@ -41,6 +41,8 @@ _API = {
     "Status": ("shapegrowth.status", "Status"),
     "Outcome": ("shapegrowth.status", "Outcome"),
     "RunSummary": ("shapegrowth.io.summary", "RunSummary"),
+    "lift": ("shapegrowth.optim.lift", "lift"),
+    "Lifted": ("shapegrowth.optim.lift", "Lifted"),
     "optimize": ("shapegrowth.commands.run", "run_optimization"),
     "solve": ("shapegrowth.commands.solve", "solve_forward"),
     "Sweep": ("shapegrowth.commands.study", "Sweep"),
@@ -71,6 +73,8 @@ __all__ = [
     "Status",
     "Outcome",
     "RunSummary",
+    "lift",
+    "Lifted",
     "optimize",
     "solve",
     "Sweep",
@@ -92,6 +96,7 @@ if TYPE_CHECKING:
     from .io.plotting import draw, surface
     from .io.summary import RunSummary
     from .optim.driver import Callback, Driver, DriverSettings
+    from .optim.lift import Lifted, lift
     from .optim.objective import Objective
     from .optim.problem import ReducedFunctional
     from .optim.verification import taylor_test

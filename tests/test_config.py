@@ -60,7 +60,7 @@ def test_an_alpha_schedule_is_a_list(tmp_path):
     ("growth: {eigenvalues: {initial: [\"__import__('os').system('touch /tmp/x')\", 1, 1]}}",
      "growth.eigenvalues.initial[0]", "may be called"),
     ("boundary: {clamp: inner_rim}", "boundary.clamp", "allowed: x1_min"),
-    ("model: {dim: 2}", "model.dim", "rectangle"),
+    ("model: {dim: 2, reduction: axisymmetric}", "model.reduction", "a box reduces to"),
     ("mesh: {size: 0.05, clamp_size: 0.1}", "mesh.clamp_size", "smaller than mesh.size"),
     ("boundary: {clamp: rigid}\nmesh: {size: 0.05, clamp_size: 0.01}", "mesh.clamp_size",
      "box clamped at x1_min, tube clamped at x1_min"),

@@ -1,5 +1,6 @@
-"""The reduced gradient dJ/dm: Taylor rates > 1.9 for every design-field set, in 2D and
-3D, degree 1 and 2, with filter and complexity terms, serial and on 2 ranks."""
+"""The reduced gradient dJ/dm: Taylor rates > 1.9 for every design-field set and model (3D,
+plane bodies in plane strain and stress, X1-X3 sections, axisymmetric sections), degree 1
+and 2, with filter and complexity terms, serial and on 2 ranks."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from shapegrowth.physics.geometry import load_domain
 
 BEAM = CONFIGS / "tiny" / "beam_wave.yaml"
 SQUARE = CONFIGS / "tiny" / "square_disk.yaml"
+DISK_AXI = CONFIGS / "tiny" / "disk_axi.yaml"
 
 CASES = {
     "eigenvalues": (BEAM, []),
@@ -33,8 +35,20 @@ CASES = {
                                               "objective.complexity.kind=C1",
                                               "objective.complexity.weight=0.05"]),
     "2D filter, growth degree 2": (SQUARE, ["growth.filter_length=0.5", "growth.degree=2"]),
+    "2D plane stress": (SQUARE, ["model.reduction=plane_stress"]),
+    "X1-X3 section, plane strain": (BEAM, ["model.dim=2", "mesh.size=0.05", "mesh.layers=2"]),
+    "X1-X3 section, plane stress": (BEAM, ["model.dim=2", "mesh.size=0.05", "mesh.layers=2",
+                                           "model.reduction=plane_stress"]),
+    "X1-X3 section, filter, degree 1": (BEAM, ["model.dim=2", "mesh.size=0.05",
+                                               "model.reduction=plane_stress", "model.degree=1",
+                                               "growth.filter_length=0.05"]),
+    "axisymmetric": (DISK_AXI, []),
+    "axisymmetric, complexity + gradient": (DISK_AXI, ["objective.complexity.kind=C1",
+                                                       "objective.complexity.weight=0.1",
+                                                       "objective.complexity.gradient_weight=0.01"]),
 }
-MPI_CASES = {"eigenvalues", "eigenvalues+free angles", "2D free frame"}
+MPI_CASES = {"eigenvalues", "eigenvalues+free angles", "2D free frame",
+             "X1-X3 section, plane stress", "axisymmetric"}
 
 
 def _params():

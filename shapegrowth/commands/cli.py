@@ -64,6 +64,11 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--seed", type=int, default=0, help="seed of the direction (default 0)")
     check.add_argument("--eps", type=float, default=1e-2, help="first step (default 1e-2)")
     check.add_argument("--steps", type=int, default=4, help="halvings of the step (default 4)")
+    lift = sub.add_parser("lift", parents=[options],
+                          help="a 2D section run's best growth on its 3D body, grown from rest")
+    lift.add_argument("run_dir", type=Path, help="folder of a finished run of a 2D model")
+    lift.add_argument("--config", required=True,
+                      help="YAML config of the 3D body (--set applies to it)")
     study = sub.add_parser("study", parents=[common],
                            help="a grid of settings: accuracy against cost (study.csv, study.png)")
     study.add_argument("--sweep", action="append", default=[], metavar="KEY=V1,V2,...",
@@ -141,6 +146,13 @@ def _run(cfg, args) -> int:
     return status
 
 
+def _lift(cfg, args) -> int:
+    from .lift import lift_run
+
+    lifted = lift_run(args.run_dir, cfg, args.out or args.run_dir / "lift")
+    return EXIT_OK if lifted.relative is not None else EXIT_FAILED
+
+
 def _study(cfg, args) -> int:
     from ..config import ConfigError, load
     from ..status import Outcome
@@ -191,7 +203,7 @@ def _bench(cfg, args) -> int:
 
 
 COMMANDS = {"validate": _validate, "mesh": _mesh, "solve": _solve, "gradcheck": _gradcheck,
-            "run": _run, "study": _study, "bench": _bench}
+            "run": _run, "lift": _lift, "study": _study, "bench": _bench}
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:

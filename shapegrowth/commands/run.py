@@ -4,7 +4,8 @@ Outputs in the run folder: summary.json, history.csv, history.png, shape.png (th
 deformed body coloured by lambda_hat_1, the target as dots), frame.png (a free 2D frame:
 its eigenvectors on the deformed body), fields.xdmf (+ .h5:
 displacement, Phi, the filtered growth fields lambda_hat_i/theta_hat_i, the
-eigenvectors v_i, residual_strain) and checkpoint.h5.
+eigenvectors v_i, residual_strain), growth.npz (the best growth at its nodes, for
+``shapegrowth lift``) and checkpoint.h5.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import compat
+from ..config import load
 from ..io import files as io
 from ..io.checkpoint import CheckpointFile
 from ..io.plotting import write_frame_png, write_shape_png
@@ -24,8 +26,16 @@ from ..io.summary import Dofs, OptimizationMeasures, RunSummary
 from ..optim.callbacks import FromRestEvery, ProgressLog, RetryFromRest
 from ..optim.driver import Driver, DriverResult, DriverSettings, Record
 from ..optim.levels import level_config
+from ..optim.lift import lift
 from ..optim.problem import ReducedFunctional, StateSolveError
-from ..optim.refined import Verified, branch_changed, likely_cause, verify
+from ..optim.refined import (
+    TOLERATED,
+    Verified,
+    branch_changed,
+    likely_cause,
+    refined_config,
+    verify,
+)
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
 from ..status import Outcome
@@ -119,6 +129,7 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         phi = io.deformation_field(model.state.u)
         io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
                         extra=[phi, model.residual_strain_field()])
+        io.write_growth(out / "growth.npz", model.state.applied)
         applied = model.state.applied
         write_shape_png(out / "shape.png", model.state.u, applied.eigenvalues[0],
                         rf.objective.target.points, "lambda_hat_1")
@@ -142,6 +153,11 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
             log.info("verifying: the best growth on the mesh refined %d time(s), grown from rest",
                      cfg.verify.refine)
             verified = verify(model, cfg.verify.refine, changed)
+            if cfg.verify.lift is not None:
+                log.info("lifting: the best growth onto the 3D body of %s (its mesh refined %d "
+                         "time(s)), grown from rest", cfg.verify.lift, cfg.verify.refine)
+                solid = refined_config(load(cfg.verify.lift), cfg.verify.refine)
+                verified = dataclasses.replace(verified, lifted=lift(model, solid))
     summary = base_summary(
         cfg, model, report, status, timer,
         iterations=len(history),
@@ -184,17 +200,31 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
 def _verified_text(verified: Verified | None) -> str:
     if verified is None:
         return "not verified (verify.enabled: false)"
-    if verified.relative is None:
-        return f"verification {verified.status}"
     times = "once" if verified.refine == 1 else f"{verified.refine} times"
-    return (f"verified shape error {100 * verified.relative:.3g} % (mesh refined {times}, "
-            "grown from rest)")
+    refined = (f"verification {verified.status}" if verified.relative is None else
+               f"verified shape error {100 * verified.relative:.3g} % (mesh refined {times}, "
+               "grown from rest)")
+    lifted = verified.lifted
+    if lifted is None:
+        return refined
+    if lifted.relative is None:
+        return f"lift to 3D {lifted.status}; the reduced model's {refined}"
+    return (f"lifted to 3D: shape error {100 * lifted.relative:.3g} % ({lifted.config}, "
+            f"{lifted.dofs} DOFs, grown from rest); the reduced model's {refined}")
 
 
 def _report_verified(verified: Verified | None, own_relative: float) -> None:
     """The warning of a run whose verified error exceeds its own by more than a factor 2."""
     if verified is None:
         return
+    lifted = verified.lifted
+    if lifted is not None and lifted.relative is not None and verified.relative is not None \
+            and lifted.relative > TOLERATED * max(verified.relative, own_relative):
+        log.warning("the 3D body does not follow the reduced model: lifted %.3g %% against the "
+                    "reduced model's %.3g %% (verified): what the reduction leaves out matters "
+                    "here (anticlastic bending, the width's own stretch, buckling out of "
+                    "symmetry); continue in 3D from this growth", 100 * lifted.relative,
+                    100 * verified.relative)
     cause = likely_cause(own_relative, verified)
     if cause is None:
         return

@@ -9,12 +9,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .expressions import CONSTANTS, COORDINATES, FUNCTIONS, Expression, ExpressionError
+from .reduction import SECTIONED, Section, section_of
 from .sections import (
     BOUNDARIES,
     GEOMETRY_PARAMS,
     PAPER_ANGLE_BOUNDS_2D,
     PAPER_ANGLE_BOUNDS_3D,
     GrowthConfig,
+    ModelConfig,
 )
 
 if TYPE_CHECKING:
@@ -42,9 +44,9 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     if kind in ("tube", "cylinder_shell") and geo.radius and geo.thickness \
             and geo.thickness >= geo.radius:
         errors.append("geometry.thickness: the wall must be thinner than geometry.radius")
-    if (kind == "rectangle") != (dim == 2):
-        errors.append(f"model.dim: {dim} does not fit geometry.kind '{kind}' "
-                      "(rectangle is the 2D plane-strain body; every other kind is 3D)")
+    model = _check_model(cfg, errors)
+    cfg = dataclasses.replace(cfg, model=model)
+    section = section_of(dim, kind, model.plane, model.reduction)
 
     bc = cfg.boundary.clamp
     allowed = (*BOUNDARIES[kind], "rigid")
@@ -60,18 +62,35 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
         elif cfg.mesh.clamp_size >= cfg.mesh.size:
             errors.append("mesh.clamp_size: must be smaller than mesh.size (or left out)")
 
+    if section.reduced and bc in _OFF_SECTION.get(kind, ()):
+        errors.append(f"boundary.clamp: '{bc}' is not on the section a 2D model of a {kind} "
+                      "keeps; clamp a boundary in the plane, or use model.dim: 3")
+
     loads = cfg.loads
-    body_force = loads.body_force if loads.body_force is not None else (0.0,) * dim
-    if len(body_force) != dim:
-        errors.append(f"loads.body_force: give {dim} components")
+    n_load = 3 if section.reduced else dim  # a section's loads are the 3D body's
+    body_force = loads.body_force if loads.body_force is not None else (0.0,) * n_load
+    if len(body_force) != n_load:
+        errors.append(f"loads.body_force: give {n_load} components")
     for name, vec in loads.traction.items():
         if name not in BOUNDARIES[kind]:
             errors.append(f"loads.traction.{name}: not a boundary of a {kind} "
                           f"(allowed: {', '.join(BOUNDARIES[kind])})")
-        if vec is not None and len(vec) != dim:
-            errors.append(f"loads.traction.{name}: give {dim} components")
+        if vec is not None and len(vec) != n_load:
+            errors.append(f"loads.traction.{name}: give {n_load} components")
+    if section.reduced:
+        out = section.out_of_plane
+        for key, vec in [("body_force", body_force), *(
+                (f"traction.{n}", v) for n, v in loads.traction.items())]:
+            if vec is not None and len(vec) == 3 and vec[out] != 0.0:
+                errors.append(f"loads.{key}: a 2D model of a {kind} carries no load along "
+                              f"X{out + 1} (out of its plane); set that component to 0")
 
     growth = _check_growth(cfg, errors)
+    if section.reduced:
+        _check_reduced(cfg, section, errors)
+    elif cfg.verify.lift is not None:
+        errors.append("verify.lift: lifts a 2D section model (model.dim: 2 of a box, annulus "
+                      "or cylinder_shell) to 3D; remove the key")
     _check_names(cfg, errors)
     _check_expressions(cfg, growth, errors)
     if cfg.target is not None:
@@ -91,8 +110,68 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
             errors.append(f"solver.petsc_options.{key}: keys start with state_, adjoint_ "
                           "or filter_")
 
-    return dataclasses.replace(cfg, growth=growth,
+    return dataclasses.replace(cfg, growth=growth, model=model,
                                loads=dataclasses.replace(loads, body_force=tuple(body_force)))
+
+
+# boundaries of a sectioned body that its section does not keep
+_OFF_SECTION = {"box": ("x2_min", "x2_max")}
+# the section of each sectioned body, and its reductions
+_SECTION_REDUCTIONS = {"box": ("plane_strain", "plane_stress"), "annulus": ("axisymmetric",),
+                       "cylinder_shell": ("axisymmetric",)}
+
+
+def _check_model(cfg: Config, errors: list[str]) -> ModelConfig:
+    """model.dim, plane and reduction against the geometry; resolves the default plane."""
+    m, kind = cfg.model, cfg.geometry.kind
+    if m.dim == 3:
+        if kind == "rectangle":
+            errors.append("model.dim: 3 does not fit geometry.kind 'rectangle' (a 2D body); "
+                          "use dim: 2, or the cube")
+        if m.plane is not None or m.reduction != "plane_strain":
+            errors.append("model.plane, model.reduction: a 3D model has none; remove them or "
+                          "set model.dim: 2")
+        return m
+    if kind not in (*SECTIONED, "rectangle"):
+        errors.append(f"model.dim: 2 does not fit geometry.kind '{kind}' (2D: a rectangle, or "
+                      f"the section of a {', '.join(SECTIONED)})")
+        return m
+    plane = m.plane or ("x1x2" if kind == "rectangle" else "x1x3")
+    if kind == "rectangle":
+        if plane != "x1x2":
+            errors.append("model.plane: a rectangle lies in x1x2")
+        if m.reduction == "axisymmetric":
+            errors.append("model.reduction: a rectangle is a plane body (plane_strain or "
+                          "plane_stress); axisymmetric models take an annulus or "
+                          "cylinder_shell")
+    else:
+        if plane != "x1x3":
+            errors.append(f"model.plane: the section of a {kind} is x1x3 (X1 = R and X3 = Z "
+                          "when axisymmetric)")
+        if m.reduction not in _SECTION_REDUCTIONS[kind]:
+            errors.append(f"model.reduction: a {kind} reduces to "
+                          f"{' or '.join(_SECTION_REDUCTIONS[kind])}")
+    return dataclasses.replace(m, plane=plane)
+
+
+def _check_reduced(cfg: Config, section: Section, errors: list[str]) -> None:
+    """What a section model of a 3D body needs: a frame that keeps the third direction a
+    principal direction of C_g, a target map, and a 3D config to lift to."""
+    frame = cfg.growth.frame
+    allowed = ("cylindrical",) if section.axisymmetric else ("cartesian", "cylindrical")
+    if frame not in allowed:
+        errors.append(f"growth.frame: the {cfg.model.reduction} model takes "
+                      f"{' or '.join(allowed)} (the out-of-plane direction must stay an "
+                      f"eigenvector of C_g), not {frame}")
+    if cfg.growth.eigenvalues.incompressible:
+        errors.append("growth.eigenvalues.incompressible: not available in a 2D section "
+                      "model; use model.dim: 3")
+    if cfg.target is not None and cfg.target.mesh is not None:
+        errors.append("target.mesh: a 2D section model takes a target.map (the 3D body's); "
+                      "use model.dim: 3 for a target mesh")
+    lift = cfg.verify.lift
+    if lift is not None and not Path(lift).is_file():
+        errors.append(f"verify.lift: file '{lift}' not found (the 3D config to lift to)")
 
 
 def _check_levels(cfg: Config, errors: list[str]) -> None:
@@ -114,7 +193,7 @@ def _check_levels(cfg: Config, errors: list[str]) -> None:
 
 
 def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:
-    g, dim = cfg.growth, cfg.model.dim
+    g, dim = cfg.growth, cfg.growth_dim
     eig = g.eigenvalues
     n_eig = dim - 1 if eig.incompressible else dim
     initial = eig.initial if eig.initial is not None else (1.0,) * n_eig
@@ -171,8 +250,9 @@ def _check_target_start(cfg: Config, errors: list[str]) -> None:
                       "use start: given")
     if g.eigenvalues.incompressible:
         errors.append("growth.start: 'target' is not defined with eigenvalues.incompressible")
-    n_eig = cfg.model.dim - 1 if g.eigenvalues.incompressible else cfg.model.dim
-    defaults = {"eigenvalues": (1.0,) * n_eig, "angles": (0.0,) * (3 if cfg.model.dim == 3 else 1)}
+    dim = cfg.growth_dim
+    n_eig = dim - 1 if g.eigenvalues.incompressible else dim
+    defaults = {"eigenvalues": (1.0,) * n_eig, "angles": (0.0,) * (3 if dim == 3 else 1)}
     for key, default in defaults.items():
         # the resolved config holds the defaults: a config checked again stays valid
         if getattr(g, key).initial not in (None, default):
@@ -208,7 +288,8 @@ def _check_target(cfg: Config, errors: list[str]) -> None:
     assert target is not None  # the caller checks
     if (target.map is None) == (target.mesh is None):
         errors.append("target: give exactly one of 'map' (expressions) or 'mesh' (a file)")
-    if target.map is not None and len(target.map) != cfg.model.dim:
-        errors.append(f"target.map: give {cfg.model.dim} components")
+    if target.map is not None and len(target.map) != cfg.growth_dim:
+        errors.append(f"target.map: give {cfg.growth_dim} components"
+                      + (" (the 3D body's map)" if cfg.section.reduced else ""))
     if target.mesh is not None and not Path(target.mesh).is_file():
         errors.append(f"target.mesh: file '{target.mesh}' not found")

@@ -25,7 +25,12 @@ def map_jacobian(cfg: Config, X: np.ndarray, weights: str) -> np.ndarray:
     reference measure) where the map has no volume and for ``pushforward``."""
     if weights == "pushforward":
         return np.ones(X.shape[1])
-    det = np.abs(np.linalg.det(target_gradient(cfg, X)))
+    grad = target_gradient(cfg, X)
+    section = cfg.section
+    if section.reduced and not section.axisymmetric:  # a plane section's area measure
+        axes = list(section.axes)
+        grad = grad[:, axes][:, :, axes]
+    det = np.abs(np.linalg.det(grad))
     return np.where(det > DEGENERATE, det, 1.0)
 
 
@@ -33,7 +38,7 @@ def target_gradient(cfg: Config, X: np.ndarray) -> np.ndarray:
     """grad Phi_d of ``target.map`` at the points X (3, n), by central differences:
     (n, dim, dim).  The step, 1e-5 of each point's distance to the origin (at least 1e-8),
     depends on the point alone, so every partition gets the same values."""
-    dim = cfg.dim
+    dim = cfg.growth_dim  # a section's map is the 3D body's
     params, axis = cfg.expression_params, cfg.cylinder_axis
     step = 1e-5 * np.maximum(np.abs(X[:dim]).max(axis=0), 1e-3)
     grad = np.empty((X.shape[1], dim, dim))

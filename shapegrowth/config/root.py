@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from .checks import resolve_and_check
+from .reduction import Section, section_of
 from .schema import build, option
 from .sections import (
     GEOMETRY_PARAMS,
@@ -80,6 +81,17 @@ class Config:
     @property
     def dim(self) -> int:
         return self.model.dim
+
+    @property
+    def section(self) -> Section:
+        """What the mesh stands for: the solid, a plane body, or a reduced 3D body."""
+        m = self.model
+        return section_of(m.dim, self.geometry.kind, m.plane, m.reduction)
+
+    @property
+    def growth_dim(self) -> int:
+        """Eigen-directions of C_g: 3 for a 3D body, reduced or not; 2 for a plane body."""
+        return 3 if self.model.dim == 3 or self.section.reduced else 2
 
     @property
     def expression_params(self) -> dict[str, float]:

@@ -26,6 +26,8 @@ BOUNDARIES: dict[str, tuple[str, ...]] = {
     "rectangle": ("x1_min", "x1_max", "x2_min", "x2_max"),
     "cube": ("x1_min", "x1_max", "x2_min", "x2_max", "x3_min", "x3_max"),
 }
+PLANES = ("x1x2", "x1x3")
+REDUCTIONS = ("plane_strain", "plane_stress", "axisymmetric")
 LAYERED = ("box", "tube", "annulus", "cylinder_shell")  # bodies with a thin direction
 FRAMES = ("cartesian", "cylindrical", "tube", "free")
 PAPER_ANGLE_BOUNDS_3D = ((0.0, 2 * math.pi), (0.0, math.pi), (0.0, 2 * math.pi))
@@ -84,7 +86,17 @@ class MeshConfig:
 
 @dataclass(frozen=True)
 class ModelConfig:
-    dim: int = option("3, or 2 for plane strain in the X1-X2 plane", 3, choices=(2, 3))
+    dim: int = option("3, or 2: a plane body (rectangle) or the section of a 3D body (box, "
+                      "annulus, cylinder_shell) in `plane`, reduced by `reduction`", 3,
+                      choices=(2, 3))
+    plane: str | None = option(
+        "dim 2: the coordinate plane the 2D mesh lies in: x1x2 (rectangle) or x1x3 (the "
+        "section of a box, annulus or cylinder_shell; (R, Z) when axisymmetric); default: "
+        "the geometry's", None, choices=PLANES)
+    reduction: str = option(
+        "dim 2: what the third direction does: plane_strain (no stretch), plane_stress (free "
+        "stretch, no stress) or axisymmetric (the hoop stretch (R + u_R)/R of a body of "
+        "revolution about X3)", "plane_strain", choices=REDUCTIONS)
     degree: int = option("polynomial degree of the displacement", 2, choices=(1, 2))
     quadrature_degree: int | None = option(
         "quadrature degree of the energy (default 2*degree; UFL's own estimate is far higher)",
@@ -257,6 +269,11 @@ class VerifyConfig:
     refine: int = option(
         "uniform refinements of the run's mesh for the verification (nested: the growth "
         "carries over exactly)", 1, ge=1, le=3)
+    lift: str | None = option(
+        "a reduced model (dim 2 section of a 3D body): the 3D config its growth is lifted "
+        "onto (extruded along X2, or revolved about X3; its mesh refined `refine` times), "
+        "solved from rest and measured there; the run then leads with that number (a path "
+        "as for target.mesh)", None)
 
 
 @dataclass(frozen=True)

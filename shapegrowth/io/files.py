@@ -17,6 +17,7 @@ from typing import Any
 
 import dolfinx.fem
 import numpy as np
+import ufl
 from mpi4py import MPI
 
 from .. import compat
@@ -64,8 +65,12 @@ def to_p1(f: dolfinx.fem.Function, name: str | None = None) -> dolfinx.fem.Funct
 def eigenvector_fields(growth: Growth) -> list[dolfinx.fem.Function]:
     """v_1..v_N of C_g as P1 vector fields."""
     space = compat.vector_space(growth.mesh, 1)
+    vectors = growth.vectors()
+    if growth.section is not None:  # a section's 3D frame, seen in its plane
+        a, b = growth.section.axes
+        vectors = [ufl.as_vector([v[a], v[b]]) for v in vectors]
     out = []
-    for i, v in enumerate(growth.vectors()):
+    for i, v in enumerate(vectors):
         f = dolfinx.fem.Function(space, name=f"v_{i + 1}")
         compat.interpolate_expression(f, v)
         out.append(f)
@@ -80,6 +85,43 @@ def write_fields(path: Path, displacement: dolfinx.fem.Function, growth: Growth,
     functions += eigenvector_fields(growth)
     functions += [to_p1(f) for f in extra]
     compat.write_xdmf(path, displacement.function_space.mesh, functions)
+
+
+def write_growth(path: Path, growth: Growth) -> None:
+    """growth.npz: the growth fields at their nodes, ``points`` (n, 3, mesh coordinates) and
+    one array per field (``lambda_hat_1``, ...), gathered on rank 0 in no particular order:
+    independent of the ranks that wrote it (``shapegrowth lift`` reads it back)."""
+    comm = growth.mesh.comm
+    owned = growth.space.dofmap.index_map.size_local
+    points = comm.gather(growth.space.tabulate_dof_coordinates()[:owned], root=0)
+    values = [comm.gather(f.x.array[:owned], root=0) for f in growth.fields]
+    if comm.rank == 0:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {f.name: np.concatenate(v) for f, v in zip(growth.fields, values)}
+        with open(path.with_suffix(".tmp"), "wb") as tmp:
+            np.savez(tmp, points=np.concatenate(points), **arrays)
+        os.replace(path.with_suffix(".tmp"), path)
+    comm.barrier()
+
+
+def read_growth(path: Path, growth: Growth) -> None:
+    """Set ``growth``'s fields from a growth.npz written on the same mesh (any ranks): each
+    node takes the value stored at its coordinates.  ValueError when the file does not
+    match the mesh."""
+    data = np.load(path)
+    from scipy.spatial import cKDTree
+
+    coords = growth.space.tabulate_dof_coordinates()
+    distance, index = cKDTree(data["points"]).query(coords)
+    scale = max(float(np.abs(data["points"]).max(initial=0.0)), 1.0)
+    local_bad = int(np.count_nonzero(distance > 1e-9 * scale))
+    names = [f.name for f in growth.fields]
+    missing = [n for n in names if n not in data.files]
+    if growth.mesh.comm.allreduce(local_bad) or missing:
+        raise ValueError(f"{path} does not hold this model's growth (other mesh or fields: "
+                         f"{missing or 'nodes do not match'})")
+    for f in growth.fields:
+        f.x.array[:] = data[f.name][index]
 
 
 HISTORY_COLUMNS = ("iteration", "objective", "rho_H", "complexity", "hausdorff",

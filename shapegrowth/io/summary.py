@@ -9,6 +9,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..optim.lift import Lifted
 from ..optim.refined import Verified
 from ..status import Outcome
 
@@ -96,6 +97,8 @@ class RunSummary:
             elif f.name == "verified":
                 if value is not None:
                     out["verified"] = _plain(value)
+                    if value.lifted is None:  # only a lifted reduced model has one
+                        del out["verified"]["lifted"]
             elif f.name == "status":
                 out["status"] = str(value)
             else:
@@ -119,7 +122,11 @@ class RunSummary:
             keys = [f.name for f in dataclasses.fields(OptimizationMeasures)]
             measured: dict[str, Any] = {k: data.get(k) for k in keys}
             optimization = OptimizationMeasures(**measured)
-        verified = Verified(**data["verified"]) if data.get("verified") else None
+        verified = None
+        if data.get("verified"):
+            fields = dict(data["verified"])
+            lifted = fields.pop("lifted", None)
+            verified = Verified(**fields, lifted=Lifted(**lifted) if lifted else None)
         return cls(**common, solve=solve, optimization=optimization, verified=verified)
 
 

@@ -41,14 +41,15 @@ class Objective:
         mesh = state.domain.mesh
         self.comm = mesh.comm
         self.state = state
-        self.cloud = QuadratureCloud(mesh, h.quadrature_degree)
+        self.cloud = QuadratureCloud(mesh, h.quadrature_degree, state.weight)
         self.target = target_cloud(cfg, self.cloud, self.comm)
         self.target_size = self.target.extent(self.comm)  # of the sample points, as rho_H sees it
         self.divergence = ShapeDivergence(
             SmoothHausdorff(alpha=h.alphas[0], beta=h.beta, gamma=h.gamma, phi=h.phi,
                             cutoff=h.cutoff), h.form)
-        self._deformed = self.cloud.deformed_factory(state.u)
-        self._pullback, self._fill = self.cloud.pullback_form(state.u)
+        ratio = state.volume_ratio() if cfg.section.reduced else None  # None: det F
+        self._deformed = self.cloud.deformed_factory(state.u, ratio)
+        self._pullback, self._fill = self.cloud.pullback_form(state.u, ratio)
         density = complexity_density(cfg.objective.complexity, state.applied)
         self._complexity = None
         if density is not None:

@@ -27,6 +27,7 @@ from ..config import Config
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
+from .lift import Lifted
 from .objective import Objective
 
 log = logging.getLogger(__name__)
@@ -46,6 +47,13 @@ class Verified:
     wall_s: float
     branch_changed: bool  # from rest on the run's own mesh, another equilibrium than the run's
     status: str  # "solved", or "failed: <reason>"
+    lifted: Lifted | None = None  # a reduced model's growth on its 3D body (verify.lift)
+
+    @property
+    def headline(self) -> float | None:
+        """The number a run leads with: the lifted 3D error of a reduced model that was
+        lifted, else the refined model's."""
+        return self.lifted.relative if self.lifted is not None else self.relative
 
 
 def refined_config(cfg: Config, refine: int) -> Config:

@@ -22,11 +22,13 @@ from mpi4py import MPI
 from .geometry import Domain
 
 
-def clamp_conditions(V: Any, domain: Domain, clamp: str) -> list:
-    """Homogeneous Dirichlet conditions for the displacement space ``V``."""
+def clamp_conditions(V: Any, domain: Domain, clamp: str, axisymmetric: bool = False) -> list:
+    """Homogeneous Dirichlet conditions for the displacement space ``V``.  The (R, Z) section
+    of a body of revolution has one rigid motion, the translation along Z: ``rigid`` pins
+    u_Z at A alone there."""
     mesh = domain.mesh
     if clamp == "rigid":
-        return _rigid_pins(V, mesh)
+        return _rigid_pins(V, mesh, axisymmetric)
     fdim = mesh.topology.dim - 1
     facets = domain.facet_tags.find(domain.boundaries[clamp])
     dofs = dolfinx.fem.locate_dofs_topological(V, fdim, facets)
@@ -58,7 +60,7 @@ def best_vertex(mesh, key) -> np.ndarray:
     return np.array(best[1])
 
 
-def _rigid_pins(V, mesh) -> list:
+def _rigid_pins(V, mesh, axisymmetric: bool = False) -> list:
     """Pins A (all directions), B (X2, X3), C (X3) with B on the X1-line through A
     and C in A's X3-plane when the mesh has such vertices, so that any homogeneous
     deformation about A leaves the pins without reaction."""
@@ -78,7 +80,9 @@ def _rigid_pins(V, mesh) -> list:
     b = best_vertex(mesh, lambda x: off_axis(x, 0, far=True))
     pins: list[tuple[np.ndarray, list[int]]] = [(a, list(range(gdim))),
                                                 (b, list(range(1, gdim)))]
-    if gdim == 3:
+    if axisymmetric:
+        pins = [(a, [1])]
+    elif gdim == 3:
         c = best_vertex(mesh, lambda x: off_axis(x, 1, far=False))
         pins.append((c, [2]))
     tol = 1e-10 * max(float(extent.max()), 1.0)

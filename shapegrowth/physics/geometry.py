@@ -84,6 +84,8 @@ def _params(cfg: Config) -> dict[str, float | int | str]:
                                             "builder": BUILDER_VERSION}
     for name in GEOMETRY_PARAMS[geo.kind]:
         params[name] = getattr(geo, name)
+    if cfg.section.reduced:
+        params["section"] = cfg.model.plane or "x1x3"
     if geo.kind in LAYERED:
         params["layers"] = cfg.mesh.layers
     if cfg.mesh.refine:
@@ -163,7 +165,10 @@ def _build(cfg: Config, path: Path) -> None:
         gmsh.model.add(geo.kind)
         builders = {"box": _box, "tube": _tube, "annulus": _annulus,
                     "cylinder_shell": _cylinder_shell, "rectangle": _rectangle, "cube": _cube}
-        builders[geo.kind](gmsh, cfg, h)
+        if cfg.section.reduced:
+            _section(gmsh, cfg, h)
+        else:
+            builders[geo.kind](gmsh, cfg, h)
         _physical_groups(gmsh, cfg)
         gmsh.model.mesh.generate(cfg.model.dim)
         for _ in range(cfg.mesh.refine):
@@ -299,6 +304,34 @@ def _cylinder_shell(gmsh, cfg: Config, h: float) -> None:
     gmsh.model.geo.synchronize()
 
 
+def _section(gmsh, cfg: Config, h: float) -> None:
+    """The section a 2D model of a box, annulus or cylinder shell keeps, in mesh coordinates
+    (X1, X3) or (R, Z): a line across the thin direction (``layers`` elements) swept along the
+    long one in steps of about h, graded from the clamped end as the 3D bodies are.
+
+    * box: X1 in [0, L], X3 in [-t/2, t/2], swept along X1 from the clamp at X1 = 0;
+    * annulus: R in [R1, R2], Z in [-t/2, t/2], swept along R from the inner rim;
+    * cylinder_shell: R in [R - t, R], Z in [0, height], swept along Z from the bottom rim.
+    """
+    g, geo = _dims(cfg), gmsh.model.geo
+    if cfg.geometry.kind == "cylinder_shell":
+        start, across, along = (g.radius - g.thickness, 0.0), (g.thickness, 0.0), g.height
+        sweep = (0.0, 1.0)
+    else:
+        r0 = 0.0 if cfg.geometry.kind == "box" else g.inner_radius
+        length = g.length if cfg.geometry.kind == "box" else g.radius - g.inner_radius
+        start, across, along, sweep = (r0, -g.thickness / 2), (0.0, g.thickness), length, (1.0, 0.0)
+    a = geo.addPoint(start[0], start[1], 0.0)
+    b = geo.addPoint(start[0] + across[0], start[1] + across[1], 0.0)
+    line = geo.addLine(a, b)
+    # the geo kernel's own setting: a model-level one is reset by the next synchronize
+    geo.mesh.setTransfiniteCurve(line, cfg.mesh.layers + 1)
+    count, heights = _graded_layers(along, h, cfg)
+    geo.extrude([(1, line)], sweep[0] * along, sweep[1] * along, 0.0,
+                numElements=count, heights=heights)
+    geo.synchronize()
+
+
 def _even_count(extent: float, h: float) -> int:
     """Divisions of a side: about extent/h, even so that the centre is a vertex."""
     return 2 * max(1, int(round(extent / h / 2)))
@@ -380,13 +413,26 @@ def _physical_groups(gmsh, cfg: Config) -> None:
         if len(upward) != 1:
             continue  # an interface between two volumes of the same body
         box = np.array(gmsh.model.getBoundingBox(dim - 1, tag))
-        name = _boundary_name(kind, cfg, box[:3], box[3:], tol)
+        lo, hi = box[:3], box[3:]
+        if cfg.section.reduced:  # mesh coordinates (X1, X3) or (R, Z): the 3D box it spans
+            lo, hi = _section_box(cfg, lo, hi)
+        name = _boundary_name(kind, cfg, lo, hi, tol)
         if name is None:
             raise RuntimeError(f"cannot classify boundary entity {tag} of a {kind}")
         groups[name].append(tag)
     for i, name in enumerate(names):
+        if not groups[name]:
+            continue  # off the section (a box's x2_min, x2_max): checks.py keeps it unused
         gmsh.model.addPhysicalGroup(dim - 1, groups[name], i + 1)
         gmsh.model.setPhysicalName(dim - 1, i + 1, name)
     volumes = [tag for _, tag in gmsh.model.getEntities(dim)]
     gmsh.model.addPhysicalGroup(dim, volumes, 1)
     gmsh.model.setPhysicalName(dim, 1, "body")
+
+
+def _section_box(cfg: Config, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 3D bounding box of a section's edge with bounding box [lo, hi] in mesh coordinates:
+    X2 spans the box's width (it is not one of the edge's flat directions); a body of
+    revolution's edge stands at theta = 0."""
+    span = _dims(cfg).width / 2 if cfg.geometry.kind == "box" else 0.0
+    return (np.array([lo[0], -span, lo[1]]), np.array([hi[0], span, hi[1]]))

@@ -29,6 +29,7 @@ from .. import compat
 from ..config import Config, ConfigError, resolved
 from ..config.expressions import evaluate
 from ..config.maps import target_metric
+from ..config.reduction import Section
 from .eigenframes import aligned_eigenframes, rodrigues_angles
 
 log = logging.getLogger(__name__)
@@ -38,9 +39,11 @@ class Growth:
     """Eigenvalue and angle fields on a mesh, and the C_g they define."""
 
     def __init__(self, mesh, dim: int, frame: str, degree: int = 1,
-                 incompressible: bool = False):
+                 incompressible: bool = False, section: Section | None = None):
         self.mesh, self.dim, self.frame = mesh, dim, frame
         self.degree, self.incompressible = degree, incompressible
+        # a section of a 3D body: mesh point (X1, X3) stands for (X1, 0, X3) (reduction.py)
+        self.section = section if section is not None and section.reduced else None
         self.space = compat.scalar_space(mesh, degree)
         n_eig = dim - 1 if incompressible else dim
         self.eigenvalues = [dolfinx.fem.Function(self.space, name=f"lambda_hat_{i + 1}")
@@ -54,13 +57,25 @@ class Growth:
     @classmethod
     def from_config(cls, mesh, cfg: Config) -> Growth:
         g = cfg.growth
-        growth = cls(mesh, cfg.dim, g.frame, g.degree, g.eigenvalues.incompressible)
+        growth = cls(mesh, cfg.growth_dim, g.frame, g.degree, g.eigenvalues.incompressible,
+                     cfg.section)
         growth.initialise(cfg)
         return growth
 
     def like(self) -> Growth:
         """New fields on the same spaces and frame (values: identity growth)."""
-        return Growth(self.mesh, self.dim, self.frame, self.degree, self.incompressible)
+        return Growth(self.mesh, self.dim, self.frame, self.degree, self.incompressible,
+                      self.section)
+
+    def point(self) -> ufl.core.expr.Expr:
+        """The reference point (UFL) the frame is evaluated at: 3D for a section."""
+        x = ufl.SpatialCoordinate(self.mesh)
+        return ufl.as_vector([x[0], 0.0, x[1]]) if self.section is not None else x
+
+    def node_points(self) -> np.ndarray:
+        """The reference points (3, n) of the growth's nodes (3D for a section)."""
+        x = self.space.tabulate_dof_coordinates().T
+        return self.section.embed(x) if self.section is not None else x
 
     # ---- values ----------------------------------------------------------------------------
     @property
@@ -97,7 +112,7 @@ class Growth:
     def initialise(self, cfg: Config) -> None:
         """Set the fields from the config's numbers or expressions, checking the bounds."""
         g = cfg.growth
-        x = self.space.tabulate_dof_coordinates().T
+        x = self.node_points()
         params, axis = cfg.expression_params, cfg.cylinder_axis
         problems: list[str] = []
         lo, hi = g.eigenvalues.bounds
@@ -177,7 +192,7 @@ class Growth:
         """The frame's v_i at the growth nodes, each (n, dim)."""
         scratch = dolfinx.fem.Function(self.space)
         out = []
-        for v in frame_vectors(self.frame, ufl.SpatialCoordinate(self.mesh), self.dim):
+        for v in frame_vectors(self.frame, self.point(), self.dim):
             components = []
             for k in range(self.dim):
                 compat.interpolate_expression(scratch, v[k])
@@ -197,7 +212,7 @@ class Growth:
 
     def vectors(self) -> list[ufl.core.expr.Expr]:
         """The eigenvectors v_i as UFL vectors."""
-        return frame_vectors(self.frame, ufl.SpatialCoordinate(self.mesh), self.dim, self.angles)
+        return frame_vectors(self.frame, self.point(), self.dim, self.angles)
 
     def inverse_root(self) -> ufl.core.expr.Expr:
         """G^-1 = C_g^(-1/2) = sum_i lambda_i^(-1/2) v_i (x) v_i."""

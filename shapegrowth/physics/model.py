@@ -36,14 +36,14 @@ class ForwardModel:
         return self.domain.mesh.comm
 
     def integrate(self, integrand: ufl.core.expr.Expr) -> float:
-        value = dolfinx.fem.assemble_scalar(dolfinx.fem.form(integrand * self.state.dx))
-        return self.comm.allreduce(value, MPI.SUM)
+        """The integral over the reference body (2 pi R weighted for a body of revolution)."""
+        form = dolfinx.fem.form(integrand * self.state.weight * self.state.dx)
+        return self.comm.allreduce(dolfinx.fem.assemble_scalar(form), MPI.SUM)
 
     def volumes(self) -> tuple[float, float]:
-        """Reference and deformed volume (area in 2D)."""
+        """Reference and deformed volume (area in 2D, per unit width in a plane section)."""
         one = dolfinx.fem.Constant(self.domain.mesh, 1.0)
-        deformed = ufl.det(self.state.deformation_gradient())
-        return self.integrate(one), self.integrate(deformed)
+        return self.integrate(one), self.integrate(self.state.volume_ratio())
 
     def stress_norm(self) -> float:
         """L2 norm of the first Piola-Kirchhoff stress over the reference body."""
@@ -53,9 +53,11 @@ class ForwardModel:
     def residual_strain(self) -> ufl.core.expr.Expr:
         """A^T A - I with A = F G^-1, the elastic strain the growth leaves: zero where the body
         grew stress-free (compatible growth), nonzero where growth is incompatible."""
-        Ginv = self.state.applied.inverse_root()
-        A = self.state.deformation_gradient() * Ginv
-        return A.T * A - ufl.Identity(self.state.dim)
+        kin, state = self.state.kinematics, self.state
+        Cg3 = kin.growth(state.applied.tensor())
+        F3 = kin.deformation(state.deformation_gradient(), state.u, Cg3)
+        A = F3 * kin.growth(state.applied.inverse_root())
+        return A.T * A - ufl.Identity(A.ufl_shape[0])
 
     def residual_strain_norm(self) -> float:
         """RMS of |A^T A - I| over the reference body: sqrt(int |E|^2 / |body|)."""

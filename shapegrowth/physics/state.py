@@ -34,6 +34,7 @@ from ..config import Config, ConfigError, resolved
 from .boundary import clamp_conditions
 from .geometry import Domain
 from .growth import Growth
+from .kinematics import Kinematics
 from .material import MooneyRivlin, deformation_gradient
 from .options import SolverOptions
 
@@ -96,6 +97,8 @@ class StateProblem:
         self.u = dolfinx.fem.Function(self.V, name="displacement")
         self.applied = growth.like()  # the growth that self.u is in equilibrium with
         self.material = MooneyRivlin(cfg.material.mu1, cfg.material.mu2, cfg.material.lmbda)
+        self.kinematics = Kinematics(cfg.section, mesh, self.material)
+        self.weight = self.kinematics.weight()  # 2 pi R for a body of revolution, else 1
         self.load_scale = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
 
         metadata = {"quadrature_degree": cfg.quadrature_degree}
@@ -108,7 +111,8 @@ class StateProblem:
         self.jacobian_ufl = ufl.derivative(self.residual_ufl, self.u, du)
         self.residual_form = dolfinx.fem.form(self.residual_ufl)
         self.jacobian_form = dolfinx.fem.form(self.jacobian_ufl)
-        self.bcs = clamp_conditions(self.V, domain, cfg.boundary.clamp)
+        self.bcs = clamp_conditions(self.V, domain, cfg.boundary.clamp,
+                                    cfg.section.axisymmetric)
 
         self.A = dolfinx.fem.petsc.create_matrix(self.jacobian_form)
         self.b = dolfinx.fem.petsc.create_vector(self.residual_form)
@@ -124,40 +128,51 @@ class StateProblem:
     def deformation_gradient(self) -> ufl.core.expr.Expr:
         return deformation_gradient(self.u)
 
+    def energy_density(self, F: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+        """psi of (5.1) per unit reference volume at the mesh's deformation gradient F."""
+        return self.kinematics.psi(F, self.u, self.applied.tensor())
+
     def _energy(self) -> ufl.Form:
-        F = self.deformation_gradient()
-        energy = self.material.energy_density(F, self.applied.tensor()) * self.dx
+        w = self.weight
+        energy = self.energy_density(self.deformation_gradient()) * w * self.dx
         loads = self.cfg.loads
+        axes = list(self.cfg.section.axes)  # a section's loads are the 3D body's
         body_force = resolved(loads.body_force)
         if any(body_force):
-            f = dolfinx.fem.Constant(self.domain.mesh, np.array(body_force, dtype=float))
-            energy -= self.load_scale * ufl.dot(f, self.u) * self.dx
+            f = dolfinx.fem.Constant(self.domain.mesh, np.array(body_force, dtype=float)[axes])
+            energy -= self.load_scale * ufl.dot(f, self.u) * w * self.dx
         for name, vec in loads.traction.items():
             if any(vec):
-                s0 = dolfinx.fem.Constant(self.domain.mesh, np.array(vec, dtype=float))
-                energy -= self.load_scale * ufl.dot(s0, self.u) * \
+                s0 = dolfinx.fem.Constant(self.domain.mesh, np.array(vec, dtype=float)[axes])
+                energy -= self.load_scale * ufl.dot(s0, self.u) * w * \
                     self.ds(self.domain.boundaries[name])
         return energy
 
     def first_piola(self) -> ufl.core.expr.Expr:
-        """P = dpsi/dF at the current state (dim x dim)."""
+        """P = dpsi/dF at the current state (the mesh's components, dim x dim)."""
         F = ufl.variable(self.deformation_gradient())
-        return ufl.diff(self.material.energy_density(F, self.applied.tensor()), F)
+        return ufl.diff(self.energy_density(F), F)
+
+    def volume_ratio(self) -> ufl.core.expr.Expr:
+        """Deformed per reference measure (det F; times the hoop stretch for a body of
+        revolution)."""
+        return self.kinematics.volume_ratio(self.deformation_gradient(), self.u)
 
     def force_scale(self) -> float:
         """(mu1 + mu2 + lambda) |body|^((d-1)/d): a stress times a cross-section."""
         mesh = self.domain.mesh
         one = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
-        volume = mesh.comm.allreduce(
-            dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * ufl.dx(domain=mesh))), MPI.SUM)
+        volume = mesh.comm.allreduce(dolfinx.fem.assemble_scalar(
+            dolfinx.fem.form(one * self.weight * ufl.dx(domain=mesh))), MPI.SUM)
         m = self.cfg.material
-        return (m.mu1 + m.mu2 + m.lmbda) * volume ** ((self.dim - 1) / self.dim)
+        dim = 3 if self.cfg.section.axisymmetric else self.dim  # the weighted measure's
+        return (m.mu1 + m.mu2 + m.lmbda) * volume ** ((dim - 1) / dim)
 
     def _det_F_sampler(self, degree: int):
         """det F at the quadrature points of ``degree`` on the owned cells."""
         mesh = self.domain.mesh
         points, _ = compat.reference_quadrature(mesh, degree)
-        expr = dolfinx.fem.Expression(ufl.det(self.deformation_gradient()), points)
+        expr = dolfinx.fem.Expression(self.volume_ratio(), points)
         cells = np.arange(mesh.topology.index_map(mesh.topology.dim).size_local, dtype=np.int32)
         return lambda: expr.eval(cells)
 

@@ -8,6 +8,8 @@ the value of the nearest point that fell inside.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import dolfinx.fem
 import numpy as np
 from mpi4py import MPI
@@ -16,14 +18,21 @@ from scipy.spatial import cKDTree
 from .. import compat
 
 
-def interpolate_between_meshes(source: dolfinx.fem.Function,
-                               target: dolfinx.fem.Function) -> None:
-    """target := source at target's DOF coordinates (collective on the mesh's comm)."""
+def interpolate_between_meshes(source: dolfinx.fem.Function, target: dolfinx.fem.Function,
+                               to_source: Callable[[np.ndarray], np.ndarray] | None = None
+                               ) -> None:
+    """target := source at target's DOF coordinates (collective on the mesh's comm);
+    ``to_source`` maps those points (n, 3) to the source mesh's coordinates (n, k), e.g. a
+    3D body's points to the section its 2D model meshes (the lift)."""
     comm: MPI.Comm = target.function_space.mesh.comm
     coords = target.function_space.tabulate_dof_coordinates()
     everyone = comm.allgather(coords)
     offset = sum(len(c) for c in everyone[:comm.rank])
     points = np.concatenate(everyone)
+    if to_source is not None:
+        mapped = to_source(points)
+        points = np.zeros((len(mapped), 3))
+        points[:, :mapped.shape[1]] = mapped
     values = compat.evaluate_at_points(source, points)[:, 0]
     missing = np.isnan(values)
     if missing.all():

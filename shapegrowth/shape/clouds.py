@@ -26,7 +26,9 @@ from .hausdorff import PointCloud
 class QuadratureCloud:
     """Quadrature points of degree ``degree`` on the owned cells of ``mesh``."""
 
-    def __init__(self, mesh, degree: int):
+    def __init__(self, mesh, degree: int, weight: ufl.core.expr.Expr | float = 1.0):
+        """``weight``: the reference measure per mesh measure (2 pi R on the section of a body
+        of revolution), a factor of every weight."""
         self.mesh, self.degree = mesh, degree
         self.ref_points, ref_weights = compat.reference_quadrature(mesh, degree)
         self.nq = len(ref_weights)
@@ -37,6 +39,9 @@ class QuadratureCloud:
         self.X = self._eval(x).reshape(-1, self.gdim)  # reference positions X_q
         detJ = self._eval(abs(ufl.JacobianDeterminant(mesh))).reshape(-1, self.nq)
         self.w = (detJ * ref_weights).ravel()  # physical weights of the reference cells
+        self.weight = weight
+        if not isinstance(weight, float):
+            self.w *= self._eval(weight).reshape(-1)
         cell = mesh.ufl_cell()
         self.Q = dolfinx.fem.FunctionSpace(
             mesh, ufl.FiniteElement("Quadrature", cell, degree, quad_scheme="default"))
@@ -58,11 +63,16 @@ class QuadratureCloud:
     def reference(self) -> PointCloud:
         return PointCloud(self.X.copy(), self.w.copy())
 
-    def deformed_factory(self, u: dolfinx.fem.Function):
-        """A function returning the deformed cloud for the current values of ``u``."""
-        F = ufl.Identity(self.gdim) + ufl.grad(u)
+    def _volume_ratio(self, u: dolfinx.fem.Function,
+                      ratio: ufl.core.expr.Expr | None) -> ufl.core.expr.Expr:
+        return ufl.det(ufl.Identity(self.gdim) + ufl.grad(u)) if ratio is None else ratio
+
+    def deformed_factory(self, u: dolfinx.fem.Function,
+                         volume_ratio: ufl.core.expr.Expr | None = None):
+        """A function returning the deformed cloud for the current values of ``u``;
+        ``volume_ratio``: deformed per reference measure (default det F)."""
         position = dolfinx.fem.Expression(ufl.SpatialCoordinate(self.mesh) + u, self.ref_points)
-        jacobian = dolfinx.fem.Expression(ufl.det(F), self.ref_points)
+        jacobian = dolfinx.fem.Expression(self._volume_ratio(u, volume_ratio), self.ref_points)
 
         def deformed() -> PointCloud:
             points = position.eval(self.cells).reshape(-1, self.gdim)
@@ -71,15 +81,19 @@ class QuadratureCloud:
 
         return deformed
 
-    def pullback_form(self, u: dolfinx.fem.Function):
+    def pullback_form(self, u: dolfinx.fem.Function,
+                      volume_ratio: ufl.core.expr.Expr | None = None):
         """(form, fill): ``fill(g_x, g_w)`` loads the cloud derivatives, then assembling
         ``form`` gives dJ/du as a vector on u's space."""
         gx = dolfinx.fem.Function(self.QV)
         gw = dolfinx.fem.Function(self.Q)
         v = ufl.TestFunction(u.function_space)
-        F = ufl.Identity(self.gdim) + ufl.grad(u)
-        form = dolfinx.fem.form((ufl.dot(gx, v) + gw * ufl.inner(ufl.cofac(F), ufl.grad(v)))
-                                * self.dx)
+        if volume_ratio is None:  # d(det F)[v] = cof F : grad v
+            F = ufl.Identity(self.gdim) + ufl.grad(u)
+            d_ratio = ufl.inner(ufl.cofac(F), ufl.grad(v))
+        else:
+            d_ratio = ufl.derivative(volume_ratio, u, v)
+        form = dolfinx.fem.form((ufl.dot(gx, v) + gw * d_ratio) * self.weight * self.dx)
         bs = self.gdim
 
         def fill(grad_points: np.ndarray, grad_weights: np.ndarray) -> None:

@@ -32,12 +32,17 @@ def target_cloud(cfg: Config, cloud: QuadratureCloud, comm: MPI.Comm) -> PointCl
     if target is None:
         raise ConfigError(["target: required for this command (give map: or mesh:)"])
     if target.map is not None:
+        section = cfg.section
         X = np.zeros((3, len(cloud)))
         X[:cloud.gdim] = cloud.X.T
+        if section.reduced:  # the 3D points the section stands for; the map is the 3D body's
+            X = section.embed(X)
         params, axis = cfg.expression_params, cfg.cylinder_axis
         points = np.column_stack([evaluate(e, X, params, axis) for e in target.map])
         if not np.isfinite(points).all():
             raise ConfigError(["target.map: the map is not finite everywhere on the body"])
+        if section.reduced:
+            points = section.in_plane(points)
         return PointCloud(points, cloud.w * map_jacobian(cfg, X, target.weights))
     return mesh_cloud(Path(resolved(target.mesh)), cfg.dim, cloud.degree, comm)
 

@@ -1,0 +1,65 @@
+"""``shapegrowth lift RUN_DIR --config CONFIG_3D``: a reduced run's best growth on its 3D body.
+
+The run's own config (summary.json) rebuilds its 2D model, its growth.npz sets the growth,
+and :func:`shapegrowth.optim.lift.lift` carries it onto the 3D body of CONFIG_3D (extruded
+or revolved), solves it from rest and measures it there.  Writes lift.json (the lifted
+numbers beside the run's verified and self-reported ones) and fields.xdmf of the 3D body to
+``--out`` (default RUN_DIR/lift).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from pathlib import Path
+
+from ..config import Config, from_dict
+from ..io import files as io
+from ..io.summary import RunSummary
+from ..optim.lift import Lifted, check_liftable, lifted_model
+from ..physics.model import ForwardModel
+from .solve import InputError
+
+log = logging.getLogger(__name__)
+
+
+def reduced_run(run_dir: Path) -> tuple[Config, RunSummary, ForwardModel]:
+    """The run's config, summary and 2D model at its best growth (collective)."""
+    for name in ("summary.json", "growth.npz"):
+        if not (run_dir / name).is_file():
+            raise InputError(f"lift: {run_dir / name} not found (RUN_DIR is the folder of a "
+                             "finished `shapegrowth run` of a 2D section model)")
+    summary = RunSummary.from_json(io.read_json(run_dir / "summary.json"))
+    cfg = from_dict(summary.config)
+    model = ForwardModel.build(cfg)
+    try:
+        io.read_growth(run_dir / "growth.npz", model.state.applied)
+    except ValueError as err:
+        raise InputError(f"lift: {err}") from None
+    model.growth.assign(model.state.applied.values())
+    return cfg, summary, model
+
+
+def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
+    cfg, summary, model = reduced_run(run_dir)
+    check_liftable(cfg, solid_cfg)
+    lifted, solid = lifted_model(model, solid_cfg)
+    io.write_fields(out / "fields.xdmf", solid.state.u, solid.state.applied,
+                    extra=[io.deformation_field(solid.state.u)])
+    verified = summary.verified
+    io.write_json(out / "lift.json", {
+        "run": str(run_dir), "lifted": dataclasses.asdict(lifted),
+        "reduced_verified": verified.relative if verified else None,
+        "reduced_self": summary.relative_error})
+    if lifted.relative is None:
+        log.warning("lift: %s", lifted.status)
+    else:
+        own = (f"{100 * summary.relative_error:.3g} %" if summary.relative_error is not None
+               else "n/a")
+        reduced = (f"{100 * verified.relative:.3g} %" if verified and verified.relative
+                   is not None else "not verified")
+        log.info("lifted to 3D: shape error %.3g %% (%s, %d DOFs, grown from rest, %.1f s); "
+                 "the reduced model: verified %s, self-reported %s", 100 * lifted.relative,
+                 solid_cfg.name, lifted.dofs, lifted.wall_s, reduced, own)
+    log.info("wrote %s", out / "lift.json")
+    return lifted

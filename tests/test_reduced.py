@@ -1,0 +1,232 @@
+"""The 2D models of 3D bodies: X1-X3 sections in plane strain and plane stress, (R, Z)
+sections of bodies of revolution, and the lift of their growth onto the 3D body.
+
+Closed forms: the plane-stress stretch is stress-free; a compatible bend gives the arc in
+both plane models; uniform growth of an annulus and a cylinder shell scales radii and volume
+exactly; the growth of a cone (metric of its normal offsets) gives the cone.  The lift
+carries a growth linear in the section's coordinates onto the 3D nodes exactly.
+"""
+
+from __future__ import annotations
+
+import dolfinx.fem
+import numpy as np
+import pytest
+import ufl
+from conftest import CONFIGS, read_json, run_cli
+from mpi4py import MPI
+
+import shapegrowth as sg
+from shapegrowth.config.reduction import Section
+from shapegrowth.optim.lift import lift_growth
+from shapegrowth.physics.kinematics import Kinematics
+from shapegrowth.physics.material import MooneyRivlin
+
+BEND = CONFIGS / "beam_bend.yaml"
+WAVE = CONFIGS / "tiny" / "beam_wave.yaml"
+DISK = CONFIGS / "tiny" / "disk_axi.yaml"
+
+
+def _section(path, *sets):
+    return sg.load_config(path, ["model.dim=2", *sets])
+
+
+def _annulus(extra: dict | None = None, thickness: float = 0.05, size: float = 0.05):
+    raw = {"name": "t", "geometry": {"kind": "annulus", "radius": 1.0, "inner_radius": 0.2,
+                                     "thickness": thickness},
+           "mesh": {"size": size, "layers": 2},
+           "model": {"dim": 2, "reduction": "axisymmetric"}, "boundary": {"clamp": "rigid"},
+           "growth": {"frame": "cylindrical"}}
+    raw.update(extra or {})
+    return sg.config_from_dict(raw)
+
+
+def test_the_section_models_are_chosen_by_the_model_keys():
+    box = _section(BEND, "model.reduction=plane_stress")
+    assert box.section == Section("plane_stress", (0, 2), stress_free=True)
+    assert box.growth_dim == 3 and box.model.plane == "x1x3"
+    square = sg.load_config(CONFIGS / "square_circle_free.yaml")
+    assert not square.section.reduced and square.growth_dim == 2
+    assert _annulus().section.axisymmetric
+    assert sg.load_config(BEND).section.kind == "solid"
+    pts = np.array([[0.6, 0.8, 0.1]])
+    assert np.allclose(_annulus().section.coordinates_of(pts), [[1.0, 0.1]])
+    assert np.allclose(box.section.coordinates_of(pts), [[0.6, 0.1]])
+
+
+@pytest.mark.parametrize("sets, message", [
+    (["model.reduction=axisymmetric"], "model.reduction: a box reduces to plane_strain or "
+                                       "plane_stress"),
+    (["model.plane=x1x2"], "model.plane: the section of a box is x1x3"),
+    (["growth.frame=free"], "growth.frame: the plane_strain model takes cartesian or "
+                            "cylindrical"),
+    (["boundary.clamp=x2_min"], "boundary.clamp: 'x2_min' is not on the section"),
+    (["loads.body_force=[0, 1.0e-3, 0]"], "loads.body_force: a 2D model of a box carries no "
+                                          "load along X2"),
+    (["verify.lift=nowhere.yaml"], "verify.lift: file 'nowhere.yaml' not found"),
+])
+def test_a_section_config_that_cannot_work_is_refused_naming_the_key(sets, message):
+    with pytest.raises(sg.ConfigError) as err:
+        _section(BEND, *sets)
+    assert any(p.startswith(message) for p in err.value.problems), err.value.problems
+
+
+def test_lift_and_reductions_are_refused_where_they_mean_nothing():
+    with pytest.raises(sg.ConfigError, match="verify.lift: lifts a 2D section model"):
+        sg.load_config(BEND, [f"verify.lift={BEND}"])
+    with pytest.raises(sg.ConfigError, match="model.plane, model.reduction: a 3D model"):
+        sg.load_config(BEND, ["model.reduction=plane_stress"])
+    with pytest.raises(sg.ConfigError, match="model.dim: 2 does not fit geometry.kind 'tube'"):
+        sg.load_config(CONFIGS / "tube_helix.yaml", ["model.dim=2"])
+
+
+def test_the_plane_stress_stretch_leaves_the_third_direction_free_of_stress():
+    """s* of kinematics.py: dpsi/ds = 0 there (S33 = 0) and psi is at a minimum in s; at
+    F = G (the grown shape) it is sqrt(lambda_3)."""
+    mesh = dolfinx.mesh.create_unit_square(MPI.COMM_SELF, 1, 1)
+    one = dolfinx.fem.Constant(mesh, 1.0)  # gives the expressions their mesh
+    mat = MooneyRivlin(0.5, 0.5, 3.0)
+    kin = Kinematics(Section("plane_stress", (0, 2), stress_free=True), mesh, mat)
+    F = one * ufl.as_matrix([[1.3, 0.2], [-0.1, 0.8]])
+    Cg = one * ufl.as_matrix([[1.5, 0.1, 0.0], [0.1, 0.7, 0.0], [0.0, 0.0, 1.8]])
+    u = ufl.as_vector([0.0, 0.0])
+
+    def at(expr):
+        return float(dolfinx.fem.Expression(expr, np.array([[0.3, 0.3]])).eval(
+            np.array([0], dtype=np.int32))[0, 0])
+
+    s = ufl.variable(one * at(kin.third_stretch(F, u, Cg)))
+    F3 = ufl.as_matrix([[F[0, 0], F[0, 1], 0], [F[1, 0], F[1, 1], 0], [0, 0, s]])
+    dpsi = ufl.diff(mat.psi(F3, Cg), s)
+    assert abs(at(dpsi)) < 1e-12 and at(ufl.diff(dpsi, s)) > 0
+    G = one * ufl.as_matrix([[1.5 ** 0.5, 0.0], [0.0, 0.7 ** 0.5]])
+    Cd = one * ufl.as_matrix([[1.5, 0.0, 0.0], [0.0, 0.7, 0.0], [0.0, 0.0, 1.8]])
+    assert at(kin.third_stretch(G, u, Cd)) == pytest.approx(1.8 ** 0.5, rel=1e-12)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("reduction", ["plane_strain", "plane_stress"])
+def test_a_compatible_bend_gives_the_arc_in_the_x1x3_section(reduction):
+    """lambda_1 = (1 + kappa x3)^2 bends the beam stress-free into the arc of curvature
+    kappa = pi (a half circle): tip at (sin(kappa L)/kappa, -(1 - cos kappa L)/kappa)."""
+    cfg = _section(BEND, f"model.reduction={reduction}", "mesh.size=0.02")
+    model = sg.build_model(cfg)
+    assert model.state.solve().converged
+    tip = sg.evaluate_at(model.state.u, np.array([[1.0, 0.0, 0.0]]))[0]
+    kappa = np.pi
+    assert tip[0] == pytest.approx(np.sin(kappa) / kappa - 1.0, abs=2e-3)
+    assert tip[1] == pytest.approx(-(1 - np.cos(kappa)) / kappa, abs=2e-3)
+    assert model.residual_strain_norm() < 2e-3
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("geometry", [
+    {"kind": "annulus", "radius": 1.0, "inner_radius": 0.2, "thickness": 0.05},
+    {"kind": "cylinder_shell", "radius": 1.0, "height": 1.0, "thickness": 0.05}])
+def test_uniform_growth_of_a_body_of_revolution_scales_radii_and_volume(geometry):
+    """C_g = lambda I: every radius times sqrt(lambda), the volume 2 pi int R dR dZ times
+    lambda^(3/2), the reference volume that of the 3D body (pi (R2^2 - R1^2) t)."""
+    lam = 1.44
+    cfg = _annulus({"geometry": geometry, "growth": {
+        "frame": "cylindrical", "eigenvalues": {"initial": [lam, lam, lam]}}})
+    model = sg.build_model(cfg)
+    assert model.state.solve().converged
+    V = model.state.V
+    n = V.dofmap.index_map.size_local
+    R = V.tabulate_dof_coordinates()[:n, 0]
+    u = model.state.u.x.array.reshape(-1, 2)[:n]
+    assert np.abs((R + u[:, 0]) / R - np.sqrt(lam)).max(initial=0.0) < 1e-10
+    reference, deformed = model.volumes()
+    if geometry["kind"] == "annulus":
+        exact = np.pi * (1.0 - 0.2 ** 2) * 0.05
+    else:
+        exact = np.pi * (1.0 - 0.95 ** 2) * 1.0
+    assert reference == pytest.approx(exact, rel=1e-12)
+    assert deformed == pytest.approx(lam ** 1.5 * exact, rel=1e-10)
+
+
+@pytest.mark.mpi
+def test_the_growth_of_a_cone_grows_the_cone():
+    """The cone map p(R, Z) = (R, a R) + Z n (n its unit normal) has the metric
+    diag(1 + a^2, (1 - Z a / (R sqrt(1 + a^2)))^2, 1) in the cylindrical frame: that growth
+    is compatible, and the annulus grown so from rest is the cone of slope a."""
+    a = 0.3
+    # t = 0.05: a disk of t = 0.02 (h 0.02-0.04, 2-4 layers) grown from rest ends on the
+    # inverted cone instead (slope -0.29, residual strain 0.014), a second equilibrium that
+    # only the small through-thickness part of the growth tells apart
+    cfg = _annulus({"parameters": {"a": a}, "mesh": {"size": 0.05, "layers": 4},
+                    "growth": {"frame": "cylindrical", "degree": 2, "eigenvalues": {
+                        "initial": ["1 + a**2", "(1 - x3*a/(r*sqrt(1 + a**2)))**2", 1.0]}}},
+                   thickness=0.05)
+    model = sg.build_model(cfg)
+    assert model.state.solve().converged
+    u = sg.evaluate_at(model.state.u, np.array([[0.2, 0.0, 0.0], [1.0, 0.0, 0.0]]))
+    assert np.abs(u[:, 0]).max() < 1e-5  # the mid-surface keeps its radii
+    assert (u[1, 1] - u[0, 1]) / 0.8 == pytest.approx(a, abs=1e-5)
+    assert model.residual_strain_norm() < 1e-4
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("path, sets, expression", [
+    (WAVE, ["model.reduction=plane_stress"], lambda x: 1 + 0.5 * x[2] + 0.2 * x[0]),
+    (DISK, [], lambda x: 1 + 0.1 * np.hypot(x[0], x[1]) - 0.5 * x[2])])
+def test_the_lift_carries_a_linear_growth_onto_the_3d_nodes_exactly(path, sets, expression):
+    """A growth linear in the section's coordinates, (X1, X3) or (R, Z), is a P1 field of the
+    section; lifted, each 3D node holds the expression at its own point."""
+    text = ("1 + 0.5*x3 + 0.2*x1" if path == WAVE else "1 + 0.1*r - 0.5*x3")
+    reduced = sg.load_config(path, ["model.dim=2", *sets,
+                                    f"growth.eigenvalues.initial=['{text}', 1.1, 0.9]"])
+    solid_sets = ["mesh.size=0.2", "mesh.layers=1"] if path == DISK else []
+    solid = sg.load_config(path, ["model.dim=3", "model.plane=null",
+                                  "model.reduction=plane_strain", *solid_sets])
+    model2, model3 = sg.build_model(reduced), sg.build_model(solid)
+    lift_growth(reduced, model2.growth, model3)
+    x = model3.growth.space.tabulate_dof_coordinates().T
+    assert np.abs(model3.growth.eigenvalues[0].x.array - expression(x)).max() < 1e-12
+    assert np.allclose(model3.growth.eigenvalues[1].x.array, 1.1, rtol=0, atol=1e-14)
+
+
+@pytest.mark.mpi
+def test_a_section_run_writes_its_growth_and_the_lifted_number(shared_tmp):
+    """verify.lift: summary.json's verified.lifted (3D DOFs, from rest); the final line
+    leads with it; ``shapegrowth lift`` of the run folder gives the same number, and the
+    run's growth.npz reads back onto its mesh."""
+    sets = ["model.dim=3", "model.plane=null", "model.reduction=plane_strain"]
+    solid = shared_tmp / "solid.yaml"
+    import yaml
+
+    raw = yaml.safe_load(WAVE.read_text())
+    raw["mesh"] = {"size": 0.1, "layers": 1, "cache_dir": str(shared_tmp)}
+    solid.write_text(yaml.safe_dump(raw))
+    out = shared_tmp / "run"
+    status = run_cli("run", str(WAVE), "--out", str(out), "-q",
+                     "--set", "model.dim=2", "--set", "model.reduction=plane_stress",
+                     "--set", f"mesh.cache_dir={shared_tmp}",
+                     "--set", "optimizer.max_iterations=3", "--set", f"verify.lift={solid}")
+    assert status == 0
+    verified = read_json(out / "summary.json")["verified"]
+    lifted = verified["lifted"]
+    assert lifted["status"] == "solved" and lifted["config"] == "tiny_beam_wave"
+    assert 0 < lifted["relative"] < 1 and lifted["dofs"] > 3 * read_json(
+        out / "summary.json")["dofs"]["state"]
+    # the command, onto the 3D body refined as the run's verification refines it
+    assert run_cli("lift", str(out), "--config", str(solid), "--set", "mesh.refine=1",
+                   "-q") == 0
+    again = read_json(out / "lift" / "lift.json")
+    assert again["lifted"]["relative"] == pytest.approx(lifted["relative"], rel=1e-8)
+    assert again["reduced_verified"] == pytest.approx(verified["relative"], rel=1e-12)
+    del sets
+
+
+def test_lift_refuses_a_run_folder_without_a_run_and_another_body(shared_tmp, capsys):
+    assert run_cli("lift", str(shared_tmp / "none"), "--config", str(BEND)) == 2
+    assert "error: lift: " in capsys.readouterr().err
+    reduced = _section(WAVE)
+    other = sg.load_config(WAVE, ["geometry.length=2.0", "boundary.clamp=x1_max"])
+    from shapegrowth.optim.lift import check_liftable
+
+    check_liftable(reduced, sg.load_config(WAVE))  # the body it stands for
+    with pytest.raises(sg.ConfigError) as err:
+        check_liftable(reduced, other)
+    assert [p.split(" ")[0] + " " + p.split("has ")[-1][:16] for p in err.value.problems] == [
+        "verify.lift: another geometry", "verify.lift: another clamp th"]
