@@ -188,10 +188,9 @@ def test_the_lift_carries_a_linear_growth_onto_the_3d_nodes_exactly(path, sets, 
 
 @pytest.mark.mpi
 def test_a_section_run_writes_its_growth_and_the_lifted_number(shared_tmp):
-    """verify.lift: summary.json's verified.lifted (3D DOFs, from rest); the final line
-    leads with it; ``shapegrowth lift`` of the run folder gives the same number, and the
-    run's growth.npz reads back onto its mesh."""
-    sets = ["model.dim=3", "model.plane=null", "model.reduction=plane_strain"]
+    """verify.lift: summary.json's verified.lifted (3D DOFs, from rest); ``shapegrowth
+    lift`` of the run folder gives the same number from the run's growth.npz, which holds
+    the last level's growth (on the mesh refined once) and reads back onto that mesh only."""
     solid = shared_tmp / "solid.yaml"
     import yaml
 
@@ -202,7 +201,8 @@ def test_a_section_run_writes_its_growth_and_the_lifted_number(shared_tmp):
     status = run_cli("run", str(WAVE), "--out", str(out), "-q",
                      "--set", "model.dim=2", "--set", "model.reduction=plane_stress",
                      "--set", f"mesh.cache_dir={shared_tmp}",
-                     "--set", "optimizer.max_iterations=3", "--set", f"verify.lift={solid}")
+                     "--set", "optimizer.max_iterations=4", "--set", "optimizer.levels=[0,1]",
+                     "--set", f"verify.lift={solid}")
     assert status == 0
     verified = read_json(out / "summary.json")["verified"]
     lifted = verified["lifted"]
@@ -215,7 +215,12 @@ def test_a_section_run_writes_its_growth_and_the_lifted_number(shared_tmp):
     again = read_json(out / "lift" / "lift.json")
     assert again["lifted"]["relative"] == pytest.approx(lifted["relative"], rel=1e-8)
     assert again["reduced_verified"] == pytest.approx(verified["relative"], rel=1e-12)
-    del sets
+    from shapegrowth.io.files import growth_refinements, read_growth
+
+    assert growth_refinements(out / "growth.npz") == 1
+    coarse = sg.build_model(sg.load_config(WAVE, ["model.dim=2", f"mesh.cache_dir={shared_tmp}"]))
+    with pytest.raises(ValueError, match="does not hold this model's growth"):
+        read_growth(out / "growth.npz", coarse.growth)
 
 
 def test_lift_refuses_a_run_folder_without_a_run_and_another_body(shared_tmp, capsys):

@@ -17,6 +17,7 @@ from ..config import Config, from_dict
 from ..io import files as io
 from ..io.summary import RunSummary
 from ..optim.lift import Lifted, check_liftable, lifted_model
+from ..optim.refined import refined_config
 from ..physics.model import ForwardModel
 from .solve import InputError
 
@@ -30,7 +31,9 @@ def reduced_run(run_dir: Path) -> tuple[Config, RunSummary, ForwardModel]:
             raise InputError(f"lift: {run_dir / name} not found (RUN_DIR is the folder of a "
                              "finished `shapegrowth run` of a 2D section model)")
     summary = RunSummary.from_json(io.read_json(run_dir / "summary.json"))
-    cfg = from_dict(summary.config)
+    # the mesh of the run's last level
+    base = from_dict(summary.config)
+    cfg = refined_config(base, io.growth_refinements(run_dir / "growth.npz") - base.mesh.refine)
     model = ForwardModel.build(cfg)
     try:
         io.read_growth(run_dir / "growth.npz", model.state.applied)

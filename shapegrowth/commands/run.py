@@ -129,7 +129,7 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         phi = io.deformation_field(model.state.u)
         io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
                         extra=[phi, model.residual_strain_field()])
-        io.write_growth(out / "growth.npz", model.state.applied)
+        io.write_growth(out / "growth.npz", model.state.applied, model.cfg.mesh.refine)
         applied = model.state.applied
         write_shape_png(out / "shape.png", model.state.u, applied.eigenvalues[0],
                         rf.objective.target.points, "lambda_hat_1")

@@ -87,10 +87,11 @@ def write_fields(path: Path, displacement: dolfinx.fem.Function, growth: Growth,
     compat.write_xdmf(path, displacement.function_space.mesh, functions)
 
 
-def write_growth(path: Path, growth: Growth) -> None:
+def write_growth(path: Path, growth: Growth, refine: int) -> None:
     """growth.npz: the growth fields at their nodes, ``points`` (n, 3, mesh coordinates) and
     one array per field (``lambda_hat_1``, ...), gathered on rank 0 in no particular order:
-    independent of the ranks that wrote it (``shapegrowth lift`` reads it back)."""
+    independent of the ranks that wrote it (``shapegrowth lift`` reads it back), and
+    ``refine``, the refinements of the config's mesh the fields live on (a run's last level)."""
     comm = growth.mesh.comm
     owned = growth.space.dofmap.index_map.size_local
     points = comm.gather(growth.space.tabulate_dof_coordinates()[:owned], root=0)
@@ -99,9 +100,14 @@ def write_growth(path: Path, growth: Growth) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         arrays = {f.name: np.concatenate(v) for f, v in zip(growth.fields, values)}
         with open(path.with_suffix(".tmp"), "wb") as tmp:
-            np.savez(tmp, points=np.concatenate(points), **arrays)
+            np.savez(tmp, points=np.concatenate(points), refine=refine, **arrays)
         os.replace(path.with_suffix(".tmp"), path)
     comm.barrier()
+
+
+def growth_refinements(path: Path) -> int:
+    """The ``refine`` a growth.npz was written with."""
+    return int(np.load(path)["refine"])
 
 
 def read_growth(path: Path, growth: Growth) -> None:
@@ -117,7 +123,9 @@ def read_growth(path: Path, growth: Growth) -> None:
     local_bad = int(np.count_nonzero(distance > 1e-9 * scale))
     names = [f.name for f in growth.fields]
     missing = [n for n in names if n not in data.files]
-    if growth.mesh.comm.allreduce(local_bad) or missing:
+    # every stored node is one of the mesh's (a nested coarser mesh matches a subset)
+    if growth.mesh.comm.allreduce(local_bad) or missing \
+            or compat.global_size(growth.space) != len(data["points"]):
         raise ValueError(f"{path} does not hold this model's growth (other mesh or fields: "
                          f"{missing or 'nodes do not match'})")
     for f in growth.fields:
