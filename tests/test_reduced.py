@@ -235,3 +235,24 @@ def test_lift_refuses_a_run_folder_without_a_run_and_another_body(shared_tmp, ca
         check_liftable(reduced, other)
     assert [p.split(" ")[0] + " " + p.split("has ")[-1][:16] for p in err.value.problems] == [
         "verify.lift: another geometry", "verify.lift: another clamp th"]
+
+
+@pytest.mark.mpi
+def test_a_section_probe_is_a_3d_point_and_moves_as_the_3d_body(shared_tmp):
+    """``solve --probe`` of an axisymmetric model takes a 3D point at any angle and reports
+    its 3D deformed position: uniform growth lambda about the pinned section centre
+    (R, Z) = (0.6, 0) sends (0, 0.6, 0.01) to sqrt(lambda) times itself."""
+    import yaml
+
+    lam = 1.44
+    cfg = _annulus({"growth": {"frame": "cylindrical", "eigenvalues": {"initial": [lam] * 3}},
+                    "mesh": {"size": 0.05, "layers": 2, "cache_dir": str(shared_tmp)}})
+    path = shared_tmp / "annulus.yaml"
+    path.write_text(yaml.safe_dump({k: v for k, v in cfg.to_dict().items()
+                                    if k in ("name", "geometry", "mesh", "model", "boundary",
+                                             "growth")}))
+    out = shared_tmp / "solve"
+    assert run_cli("solve", str(path), "--out", str(out), "--probe", "0,0.6,0.01", "-q") == 0
+    (probe,) = read_json(out / "summary.json")["probes"]
+    assert probe["reference"] == [0.0, 0.6, 0.01]
+    assert np.allclose(probe["deformed"], [0.0, 0.6 * lam ** 0.5, 0.01 * lam ** 0.5], atol=1e-10)

@@ -44,13 +44,19 @@ def solve_forward(cfg: Config, out: Path,
                   probe_texts: list[str] | tuple[str, ...] = ()) -> tuple[RunSummary, int]:
     """Forward solve with the config's initial growth; returns (summary, exit status)."""
     timer = Timer()
-    probes = parse_probes(list(probe_texts), cfg.dim)
+    section = cfg.section
+    n_probe = 3 if section.reduced else cfg.dim  # a section's probes are the 3D body's points
+    probes = parse_probes(list(probe_texts), n_probe)
+    on_mesh = probes
+    if section.reduced and len(probes):
+        on_mesh = np.zeros_like(probes)
+        on_mesh[:, :2] = section.coordinates_of(probes)
     with timer("forward"):
         model = ForwardModel.build(cfg)
     if len(probes):
-        outside = np.isnan(compat.evaluate_at_points(model.state.u, probes)[:, 0])
+        outside = np.isnan(compat.evaluate_at_points(model.state.u, on_mesh)[:, 0])
         if outside.any():
-            bad = ",".join(f"{v:g}" for v in probes[np.argmax(outside)][:cfg.dim])
+            bad = ",".join(f"{v:g}" for v in probes[np.argmax(outside)][:n_probe])
             raise InputError(f"--probe {bad}: the point is outside the reference body")
     log.info("solving %s: %d state DOFs, growth %s", cfg.name,
              compat.global_size(model.state.V), cfg.growth.frame)
@@ -77,20 +83,21 @@ def solve_forward(cfg: Config, out: Path,
                  exact, exact / objective.target_size)
     deformed = []
     if len(probes):
-        u = compat.evaluate_at_points(model.state.u, probes)
-        deformed = probes[:, :cfg.dim] + u
+        u = compat.evaluate_at_points(model.state.u, on_mesh)
+        deformed = (section.deformed_points(probes, u) if section.reduced
+                    else probes[:, :cfg.dim] + u)
     with timer("io"):
         io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
                         extra=[model.residual_strain_field()])
     measures = SolveMeasures(
         volume_reference=vol_ref, volume_deformed=vol_def, stress_l2=model.stress_norm(),
         residual_strain=model.residual_strain_norm(),
-        probes=tuple(Probe(tuple(map(float, p[:cfg.dim])), tuple(map(float, d)))
+        probes=tuple(Probe(tuple(map(float, p[:n_probe])), tuple(map(float, d)))
                      for p, d in zip(probes, deformed)))
     summary = base_summary(cfg, model, report, status, timer, solve=measures, **shape)
     io.write_json(out / "summary.json", summary.to_json())
     for p, d in zip(probes, deformed):
-        log.info("probe X = (%s) -> Phi(X) = (%s)", ", ".join(f"{v:.6g}" for v in p[:cfg.dim]),
+        log.info("probe X = (%s) -> Phi(X) = (%s)", ", ".join(f"{v:.6g}" for v in p[:n_probe]),
                  ", ".join(f"{v:.6g}" for v in d))
     log.info("wrote %s and %s", out / "summary.json", out / "fields.xdmf")
     log.info("view: paraview %s, then Filters > Warp By Vector (displacement)",

@@ -63,6 +63,21 @@ class Section:
             return np.column_stack([np.hypot(points[:, 0], points[:, 1]), points[:, 2]])
         return self.in_plane(points)
 
+    def deformed_points(self, points: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """The deformed 3D positions (n, 3) of 3D points (n, 3) of the body, given the
+        section's displacement u (n, 2) at their section points: in the plane, the
+        out-of-plane coordinate kept (the section's mid-plane map); for a body of revolution,
+        the section's motion turned to each point's own angle."""
+        if self.axisymmetric:
+            R = np.hypot(points[:, 0], points[:, 1])
+            theta = np.arctan2(points[:, 1], points[:, 0])
+            r = R + u[:, 0]
+            return np.column_stack([r * np.cos(theta), r * np.sin(theta), points[:, 2] + u[:, 1]])
+        out = points.copy()
+        for k, axis in enumerate(self.axes):
+            out[:, axis] += u[:, k]
+        return out
+
 
 def section_of(dim: int, kind: str, plane: str | None, reduction: str) -> Section:
     """The Section of a config's model keys (checked by checks.py)."""
