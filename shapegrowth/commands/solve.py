@@ -81,7 +81,7 @@ def solve_forward(cfg: Config, out: Path,
                  "target_size": objective.target_size}
         log.info("rho_H = %.6g, Hausdorff distance %.6g (%.3g of the target size)", value.rho_H,
                  exact, exact / objective.target_size)
-    deformed = []
+    deformed: np.ndarray = np.zeros((0, 3))
     if len(probes):
         u = compat.evaluate_at_points(model.state.u, on_mesh)
         deformed = (section.deformed_points(probes, u) if section.reduced
