@@ -187,7 +187,8 @@ def test_the_lift_carries_a_linear_growth_onto_the_3d_nodes_exactly(path, sets, 
 
 
 @pytest.mark.mpi
-def test_a_section_run_writes_its_growth_and_the_lifted_number(shared_tmp):
+def test_a_section_run_writes_its_growth_and_the_lifted_number_a_3d_run_starts_from(
+        shared_tmp):
     """verify.lift: summary.json's verified.lifted (3D DOFs, from rest); ``shapegrowth
     lift`` of the run folder gives the same number from the run's growth.npz, which holds
     the last level's growth (on the mesh refined once) and reads back onto that mesh only."""
@@ -215,6 +216,13 @@ def test_a_section_run_writes_its_growth_and_the_lifted_number(shared_tmp):
     again = read_json(out / "lift" / "lift.json")
     assert again["lifted"]["relative"] == pytest.approx(lifted["relative"], rel=1e-8)
     assert again["reduced_verified"] == pytest.approx(verified["relative"], rel=1e-12)
+    # growth.start: lifted: a 3D run starts from it, on the body the run lifted onto
+    start = shared_tmp / "start"
+    assert run_cli("run", str(solid), "--out", str(start), "-q", "--set", "mesh.refine=1",
+                   "--set", "growth.start=lifted", "--set", f"growth.from_run={out}",
+                   "--set", "optimizer.max_iterations=1", "--set", "verify.enabled=false") == 0
+    first = read_json(start / "summary.json")["hausdorff_initial"]
+    assert first == pytest.approx(lifted["hausdorff"], rel=1e-6)
     from shapegrowth.io.files import growth_refinements, read_growth
 
     assert growth_refinements(out / "growth.npz") == 1
@@ -256,3 +264,10 @@ def test_a_section_probe_is_a_3d_point_and_moves_as_the_3d_body(shared_tmp):
     (probe,) = read_json(out / "summary.json")["probes"]
     assert probe["reference"] == [0.0, 0.6, 0.01]
     assert np.allclose(probe["deformed"], [0.0, 0.6 * lam ** 0.5, 0.01 * lam ** 0.5], atol=1e-10)
+
+
+def test_a_lifted_start_needs_a_finished_section_run(shared_tmp):
+    with pytest.raises(sg.ConfigError, match="growth.from_run: give it with start: lifted"):
+        sg.load_config(WAVE, ["growth.start=lifted"])
+    with pytest.raises(sg.ConfigError, match="holds no summary.json or growth.npz"):
+        sg.load_config(WAVE, ["growth.start=lifted", f"growth.from_run={shared_tmp}"])

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import compat
-from ..config import load
+from ..config import load, resolved
 from ..io import files as io
 from ..io.checkpoint import CheckpointFile
 from ..io.plotting import write_frame_png, write_shape_png
@@ -26,7 +26,7 @@ from ..io.summary import Dofs, OptimizationMeasures, RunSummary
 from ..optim.callbacks import FromRestEvery, ProgressLog, RetryFromRest
 from ..optim.driver import Driver, DriverResult, DriverSettings, Record
 from ..optim.levels import level_config
-from ..optim.lift import lift
+from ..optim.lift import check_liftable, lift, lift_growth
 from ..optim.problem import ReducedFunctional, StateSolveError
 from ..optim.refined import (
     TOLERATED,
@@ -70,6 +70,19 @@ def _from_rest(model: ForwardModel, rf: ReducedFunctional):
     return value
 
 
+def _start_lifted(model: ForwardModel, run_dir: Path) -> None:
+    """growth.start: lifted: the 2D section run's best growth, extruded or revolved onto
+    ``model``'s 3D body (its initial growth and design)."""
+    from .lift import reduced_run
+
+    reduced_cfg, summary, reduced = reduced_run(run_dir)
+    check_liftable(reduced_cfg, model.cfg)
+    lift_growth(reduced_cfg, reduced.state.applied, model)
+    log.info("growth.start: lifted from %s (its verified error %s)", run_dir,
+             f"{100 * summary.verified.relative:.3g} %" if summary.verified and
+             summary.verified.relative is not None else "not measured")
+
+
 def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     """Optimise ``cfg``'s growth and write every output to ``out`` (module doc).  Per level
     of ``optimizer.levels`` (one without): the model, its reduced functional J(m) from the
@@ -85,6 +98,8 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         level_cfg = level_config(cfg, k)
         with timer("forward"):
             model = ForwardModel.build(level_cfg)
+            if k == 0 and cfg.growth.start == "lifted":
+                _start_lifted(model, Path(resolved(cfg.growth.from_run)))
         rf = ReducedFunctional(model, timer)
         if previous is not None:
             rf.carry_design(*previous)  # exact: the level's mesh is nested in the last one's

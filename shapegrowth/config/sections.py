@@ -151,7 +151,12 @@ class GrowthConfig:
     start: str = option(
         "initial growth: 'given' (eigenvalues.initial, angles.initial) or 'target': the target "
         "map's metric grad Phi_d^T grad Phi_d, projected on the frame (free: its eigenvalues "
-        "and directions) and clipped to the bounds", "given", choices=("given", "target"))
+        "and directions) and clipped to the bounds, or 'lifted': the best growth of the 2D "
+        "section run in `from_run`, extruded or revolved onto this 3D body", "given",
+        choices=("given", "target", "lifted"))
+    from_run: str | None = option(
+        "start: lifted: the folder of a finished run of a 2D section model of this body "
+        "(its summary.json and growth.npz)", None)
 
 
 @dataclass(frozen=True)
