@@ -2,7 +2,9 @@
 
 The run's own config (summary.json) rebuilds its 2D model, its growth.npz sets the growth,
 and :func:`shapegrowth.optim.lift.lift` carries it onto the 3D body of CONFIG_3D (extruded
-or revolved), solves it from rest and measures it there.  Writes lift.json (the lifted
+or revolved) on that config's own verification model (its finest level refined
+``verify.refine`` times, where its own runs measure their verified error), solves it from
+rest and measures it there.  Writes lift.json (the lifted
 numbers beside the run's verified and self-reported ones) and fields.xdmf of the 3D body to
 ``--out`` (default RUN_DIR/lift).
 """
@@ -16,7 +18,7 @@ from pathlib import Path
 from ..config import Config, from_dict
 from ..io import files as io
 from ..io.summary import RunSummary
-from ..optim.lift import Lifted, check_liftable, lifted_model
+from ..optim.lift import Lifted, check_liftable, lifted_model, verification_model
 from ..optim.refined import refined_config
 from ..physics.model import ForwardModel
 from .solve import InputError
@@ -44,9 +46,11 @@ def reduced_run(run_dir: Path) -> tuple[Config, RunSummary, ForwardModel]:
 
 
 def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
+    """The run's best growth on the 3D body of ``solid_cfg``, on that config's own
+    verification model (its finest level refined ``verify.refine`` times)."""
     cfg, summary, model = reduced_run(run_dir)
     check_liftable(cfg, solid_cfg)
-    lifted, solid = lifted_model(model, solid_cfg)
+    lifted, solid = lifted_model(model, verification_model(solid_cfg))
     io.write_fields(out / "fields.xdmf", solid.state.u, solid.state.applied,
                     extra=[io.deformation_field(solid.state.u)])
     verified = summary.verified

@@ -26,14 +26,13 @@ from ..io.summary import Dofs, OptimizationMeasures, RunSummary
 from ..optim.callbacks import FromRestEvery, ProgressLog, RetryFromRest
 from ..optim.driver import Driver, DriverResult, DriverSettings, Record
 from ..optim.levels import level_config
-from ..optim.lift import check_liftable, lift, lift_growth
+from ..optim.lift import check_liftable, lift, lift_growth, verification_model
 from ..optim.problem import ReducedFunctional, StateSolveError
 from ..optim.refined import (
     TOLERATED,
     Verified,
     branch_changed,
     likely_cause,
-    refined_config,
     verify,
 )
 from ..physics.model import ForwardModel
@@ -169,9 +168,10 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
                      cfg.verify.refine)
             verified = verify(model, cfg.verify.refine, changed)
             if cfg.verify.lift is not None:
+                solid = verification_model(load(cfg.verify.lift))
                 log.info("lifting: the best growth onto the 3D body of %s (its mesh refined %d "
-                         "time(s)), grown from rest", cfg.verify.lift, cfg.verify.refine)
-                solid = refined_config(load(cfg.verify.lift), cfg.verify.refine)
+                         "time(s), where its own runs verify), grown from rest",
+                         cfg.verify.lift, solid.mesh.refine)
                 verified = dataclasses.replace(verified, lifted=lift(model, solid))
     summary = base_summary(
         cfg, model, report, status, timer,

@@ -276,9 +276,10 @@ class VerifyConfig:
         "carries over exactly)", 1, ge=1, le=3)
     lift: str | None = option(
         "a reduced model (dim 2 section of a 3D body): the 3D config its growth is lifted "
-        "onto (extruded along X2, or revolved about X3; its mesh refined `refine` times), "
-        "solved from rest and measured there; the run then leads with that number (a path "
-        "as for target.mesh)", None)
+        "onto (extruded along X2, or revolved about X3), on that config's own verification "
+        "model (its finest level refined its verify.refine times), solved from rest and "
+        "measured there; the run then leads with that number (a path as for target.mesh)",
+        None)
 
 
 @dataclass(frozen=True)
