@@ -27,3 +27,24 @@ def test_scene_config_runs(scene, tmp_path):
     assert summary["iterations"] == 2 and summary["status"] == "max_iterations"
     assert math.isfinite(summary["rho_H_final"]) and summary["rho_H_final"] > 0
     assert summary["config"]["name"] == scene
+
+
+REDUCED = {"beam_wave_2d": "beam_wave", "beam_ring_2d": "beam_ring",
+           "disk_cone_axi": "disk_cone", "cylinder_flare_axi": "cylinder_flare"}
+
+
+@pytest.mark.parametrize("reduced", list(REDUCED))
+def test_reduced_scene_config_runs_and_lifts_to_its_3d_config(reduced, tmp_path):
+    """Each reduced config states its lifted number, lifts to its scene's 3D config, and
+    runs (two iterations on a coarse section, the lift left to tests/test_reduced.py)."""
+    config = CONFIGS / f"{reduced}.yaml"
+    text = config.read_text()
+    assert "lifted onto" in text and f"verify: {{lift: configs/{REDUCED[reduced]}.yaml}}" in text
+    code = run_cli("run", config, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=2",
+                   "--set", "mesh.size=0.05", "--set", "mesh.layers=2",
+                   "--set", "optimizer.levels=[0]", "--set", "optimizer.level_iterations=null",
+                   "--set", "verify.lift=null")
+    summary = read_json(tmp_path / "summary.json")
+    assert code == 0, summary["status"]
+    assert summary["iterations"] == 2 and summary["verified"]["status"] == "solved"
+    assert summary["config"]["model"]["dim"] == 2
