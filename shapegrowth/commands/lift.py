@@ -18,7 +18,7 @@ from pathlib import Path
 from ..config import Config, from_dict
 from ..io import files as io
 from ..io.summary import RunSummary
-from ..optim.lift import Lifted, check_liftable, lifted_model, verification_model
+from ..optim.lift import Lifted, lifted_model, verification_model
 from ..optim.refined import refined_config
 from ..physics.model import ForwardModel
 from .solve import InputError
@@ -48,9 +48,8 @@ def reduced_run(run_dir: Path) -> tuple[Config, RunSummary, ForwardModel]:
 def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
     """The run's best growth on the 3D body of ``solid_cfg``, on that config's own
     verification model (its finest level refined ``verify.refine`` times)."""
-    cfg, summary, model = reduced_run(run_dir)
-    check_liftable(cfg, solid_cfg)
-    lifted, solid = lifted_model(model, verification_model(solid_cfg))
+    _, summary, model = reduced_run(run_dir)
+    lifted, solid = lifted_model(model, verification_model(solid_cfg))  # checks the pair
     io.write_fields(out / "fields.xdmf", solid.state.u, solid.state.applied,
                     extra=[io.deformation_field(solid.state.u)])
     verified = summary.verified

@@ -46,7 +46,7 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
         errors.append("geometry.thickness: the wall must be thinner than geometry.radius")
     model = _check_model(cfg, errors)
     cfg = dataclasses.replace(cfg, model=model)
-    section = section_of(dim, kind, model.plane, model.reduction)
+    section = section_of(dim, kind, model.reduction)
 
     bc = cfg.boundary.clamp
     allowed = (*BOUNDARIES[kind], "rigid")
@@ -244,7 +244,7 @@ def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:
         if missing:
             errors.append(f"growth.from_run: '{g.from_run}' holds no {' or '.join(missing)} "
                           "(the folder of a finished run of a 2D section model)")
-        if dim != 3 or cfg.model.dim != 3:
+        if cfg.model.dim != 3:
             errors.append("growth.start: 'lifted' starts a 3D model (model.dim: 3) from a 2D "
                           "section run")
     if g.frame != "free" and ang.initial is not None and any(

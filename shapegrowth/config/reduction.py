@@ -79,8 +79,9 @@ class Section:
         return out
 
 
-def section_of(dim: int, kind: str, plane: str | None, reduction: str) -> Section:
-    """The Section of a config's model keys (checked by checks.py)."""
+def section_of(dim: int, kind: str, reduction: str) -> Section:
+    """The Section of a config's model keys (checked by checks.py; a section's plane is
+    x1x3, the only one a sectioned body has)."""
     if dim == 3:
         return Section(SOLID, (0, 1, 2))
     if kind not in SECTIONED:

@@ -86,7 +86,7 @@ class Config:
     def section(self) -> Section:
         """What the mesh stands for: the solid, a plane body, or a reduced 3D body."""
         m = self.model
-        return section_of(m.dim, self.geometry.kind, m.plane, m.reduction)
+        return section_of(m.dim, self.geometry.kind, m.reduction)
 
     @property
     def growth_dim(self) -> int:

@@ -46,13 +46,6 @@ class Kinematics:
         self.x = ufl.SpatialCoordinate(mesh)
         self.solid = section.kind == "solid"
 
-    def point(self) -> Expr:
-        """The reference point the growth's frame is evaluated at: 3D for a section
-        (X1, 0, X3), the mesh's own coordinates otherwise."""
-        if self.section.reduced:
-            return ufl.as_vector([self.x[0], 0.0, self.x[1]])
-        return self.x
-
     def weight(self) -> Expr | float:
         """The reference measure per mesh measure: 2 pi R for a body of revolution, else 1."""
         return 2 * math.pi * self.x[0] if self.section.axisymmetric else 1.0
