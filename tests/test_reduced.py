@@ -4,7 +4,8 @@ sections of bodies of revolution, and the lift of their growth onto the 3D body.
 Closed forms: the plane-stress stretch is stress-free; a compatible bend gives the arc in
 both plane models; uniform growth of an annulus and a cylinder shell scales radii and volume
 exactly; the growth of a cone (metric of its normal offsets) gives the cone.  The lift
-carries a growth linear in the section's coordinates onto the 3D nodes exactly.
+carries a growth linear in the section's coordinates onto the 3D nodes exactly, and where the
+growth is compatible the 3D body does not leave the section at all.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from mpi4py import MPI
 
 import shapegrowth as sg
 from shapegrowth.config.reduction import Section
-from shapegrowth.optim.lift import lift_growth
+from shapegrowth.optim.lift import lift_growth, lifted_model
 from shapegrowth.physics.kinematics import Kinematics
 from shapegrowth.physics.material import MooneyRivlin
 
@@ -64,6 +65,9 @@ def test_the_section_models_are_chosen_by_the_model_keys():
     (["loads.body_force=[0, 1.0e-3, 0]"], "loads.body_force: a 2D model of a box carries no "
                                           "load along X2"),
     (["verify.lift=nowhere.yaml"], "verify.lift: file 'nowhere.yaml' not found"),
+    (["verify.lift_refine=0"], "verify.lift_refine: refines the mesh of verify.lift, which is "
+                               "not set"),
+    (["verify.lift_refine=4"], "verify.lift_refine"),
 ])
 def test_a_section_config_that_cannot_work_is_refused_naming_the_key(sets, message):
     with pytest.raises(sg.ConfigError) as err:
@@ -186,6 +190,40 @@ def test_the_lift_carries_a_linear_growth_onto_the_3d_nodes_exactly(path, sets, 
     assert np.allclose(model3.growth.eigenvalues[1].x.array, 1.1, rtol=0, atol=1e-14)
 
 
+def _shell(dim: int) -> sg.Config:
+    raw = {"name": "shell", "geometry": {"kind": "cylinder_shell", "radius": 1.0, "height": 0.4,
+                                         "thickness": 0.1},
+           "mesh": {"size": 0.1 if dim == 2 else 0.2, "layers": 1},
+           "model": {"dim": dim, **({"reduction": "axisymmetric"} if dim == 2 else {})},
+           "boundary": {"clamp": "bottom_rim"},
+           "growth": {"frame": "cylindrical", "eigenvalues": {"initial": [1.0, 1.0, 1.21]}},
+           "target": {"map": ["x1", "x2", "x3"]}}
+    return sg.config_from_dict(raw)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("body", ["beam", "shell"])
+def test_the_3d_body_does_not_leave_the_section_where_the_growth_is_compatible(body):
+    """Growth along the axis away from the clamp (X1 of the beam, Z of the shell) leaves the
+    clamped face unstretched: both bodies stretch homogeneously, u = 0.1 X1 (or 0.1 Z), a
+    field P2 holds exactly, so every 3D node sits where the section puts it."""
+    if body == "beam":
+        grow = "growth.eigenvalues.initial=[1.21, 1.0, 1.0]"
+        reduced = sg.load_config(WAVE, ["model.dim=2", "model.reduction=plane_stress", grow])
+        solid = sg.load_config(WAVE, [grow])
+    else:
+        reduced, solid = _shell(2), _shell(3)
+    section = sg.build_model(reduced)
+    assert section.state.solve().converged
+    lifted, model3 = lifted_model(section, solid)
+    assert lifted.status == "solved" and lifted.departure is not None
+    assert lifted.departure < 1e-8
+    tip = np.array([[1.0, 0.0, 0.0]]) if body == "beam" else np.array([[1.0, 0.0, 0.4]])
+    along = 0 if body == "beam" else 2
+    assert sg.evaluate_at(model3.state.u, tip)[0, along] == pytest.approx(0.1 * tip[0, along],
+                                                                         rel=1e-8)
+
+
 @pytest.mark.mpi
 def test_a_section_run_writes_its_growth_and_the_lifted_number_a_3d_run_starts_from(
         shared_tmp):
@@ -215,6 +253,11 @@ def test_a_section_run_writes_its_growth_and_the_lifted_number_a_3d_run_starts_f
     again = read_json(out / "lift" / "lift.json")
     assert again["lifted"]["relative"] == pytest.approx(lifted["relative"], rel=1e-8)
     assert again["reduced_verified"] == pytest.approx(verified["relative"], rel=1e-12)
+    # the bent 3D beam leaves the section (anticlastic, and the clamp holds the width); the
+    # command measures it from the section solved from rest, the run from its own path's
+    # equilibrium: one equilibrium here, so the same number
+    assert 1e-7 < lifted["departure"] < 1  # the compatible growth: < 1e-8 (above)
+    assert again["lifted"]["departure"] == pytest.approx(lifted["departure"], rel=1e-5)
     # growth.start: lifted: a 3D run starts from it, on the body the run lifted onto
     start = shared_tmp / "start"
     assert run_cli("run", str(solid), "--out", str(start), "-q", "--set", "mesh.refine=1",
@@ -270,3 +313,16 @@ def test_a_lifted_start_needs_a_finished_section_run(shared_tmp):
         sg.load_config(WAVE, ["growth.start=lifted"])
     with pytest.raises(sg.ConfigError, match="holds no summary.json or growth.npz"):
         sg.load_config(WAVE, ["growth.start=lifted", f"growth.from_run={shared_tmp}"])
+
+
+def test_a_lift_is_measured_where_the_3d_config_verifies_unless_the_run_says_otherwise():
+    """verify.lift_refine: the lift config's finest level refined that many times instead
+    of its own verify.refine (disk_cone_axi: its finest level, where its solve from rest
+    finishes)."""
+    from shapegrowth.optim.lift import verification_model
+
+    solid = sg.load_config(CONFIGS / "disk_cone.yaml")
+    finest = solid.mesh.refine + solid.optimizer.levels[-1]
+    assert verification_model(solid).mesh.refine == finest + solid.verify.refine
+    assert verification_model(solid, 0).mesh.refine == finest
+    assert sg.load_config(CONFIGS / "disk_cone_axi.yaml").verify.lift_refine == 0

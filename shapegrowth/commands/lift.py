@@ -3,10 +3,11 @@
 The run's own config (summary.json) rebuilds its 2D model, its growth.npz sets the growth,
 and :func:`shapegrowth.optim.lift.lift` carries it onto the 3D body of CONFIG_3D (extruded
 or revolved) on that config's own verification model (its finest level refined
-``verify.refine`` times, where its own runs measure their verified error), solves it from
-rest and measures it there.  Writes lift.json (the lifted
-numbers beside the run's verified and self-reported ones) and fields.xdmf of the 3D body to
-``--out`` (default RUN_DIR/lift).
+``verify.refine`` times, where its own runs measure their verified error; the run's
+``verify.lift_refine`` times where it sets that), solves it from rest and measures it there,
+beside how far the 3D body leaves the section's own equilibrium (solved from rest).  Writes
+lift.json (the lifted numbers beside the run's verified and self-reported ones) and
+fields.xdmf of the 3D body to ``--out`` (default RUN_DIR/lift).
 """
 
 from __future__ import annotations
@@ -26,8 +27,10 @@ from .solve import InputError
 log = logging.getLogger(__name__)
 
 
-def reduced_run(run_dir: Path) -> tuple[Config, RunSummary, ForwardModel]:
-    """The run's config, summary and 2D model at its best growth (collective)."""
+def reduced_run(run_dir: Path, solve: bool = True
+                ) -> tuple[Config, RunSummary, ForwardModel]:
+    """The run's config, summary and 2D model at its best growth, in equilibrium from rest
+    where that solve converges (``solve``; else at rest) (collective)."""
     for name in ("summary.json", "growth.npz"):
         if not (run_dir / name).is_file():
             raise InputError(f"lift: {run_dir / name} not found (RUN_DIR is the folder of a "
@@ -42,14 +45,21 @@ def reduced_run(run_dir: Path) -> tuple[Config, RunSummary, ForwardModel]:
     except ValueError as err:
         raise InputError(f"lift: {err}") from None
     model.growth.assign(model.state.applied.values())
+    if solve:  # a 2D solve: seconds
+        report = model.state.solve()
+        if not report.converged:  # back to the run's growth, at rest
+            log.warning("lift: the section from rest: %s", report.reason)
+            model.state.reset()
+            io.read_growth(run_dir / "growth.npz", model.state.applied)
     return cfg, summary, model
 
 
 def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
     """The run's best growth on the 3D body of ``solid_cfg``, on that config's own
     verification model (its finest level refined ``verify.refine`` times)."""
-    _, summary, model = reduced_run(run_dir)
-    lifted, solid = lifted_model(model, verification_model(solid_cfg))  # checks the pair
+    cfg, summary, model = reduced_run(run_dir)
+    lifted, solid = lifted_model(model, verification_model(solid_cfg, cfg.verify.lift_refine),
+                                 compare=bool(model.state.u.x.array.any()))
     io.write_fields(out / "fields.xdmf", solid.state.u, solid.state.applied,
                     extra=[io.deformation_field(solid.state.u)])
     verified = summary.verified
@@ -65,7 +75,9 @@ def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
         reduced = (f"{100 * verified.relative:.3g} %" if verified and verified.relative
                    is not None else "not verified")
         log.info("lifted to 3D: shape error %.3g %% (%s, %d DOFs, grown from rest, %.1f s); "
-                 "the reduced model: verified %s, self-reported %s", 100 * lifted.relative,
-                 solid_cfg.name, lifted.dofs, lifted.wall_s, reduced, own)
+                 "the reduced model: verified %s, self-reported %s; the 3D body leaves the "
+                 "section's shape by up to %s of the target size", 100 * lifted.relative,
+                 solid_cfg.name, lifted.dofs, lifted.wall_s, reduced, own,
+                 "n/a" if lifted.departure is None else f"{100 * lifted.departure:.3g} %")
     log.info("wrote %s", out / "lift.json")
     return lifted

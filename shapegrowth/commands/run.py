@@ -74,7 +74,7 @@ def _start_lifted(model: ForwardModel, run_dir: Path) -> None:
     ``model``'s 3D body (its initial growth and design)."""
     from .lift import reduced_run
 
-    reduced_cfg, summary, reduced = reduced_run(run_dir)
+    reduced_cfg, summary, reduced = reduced_run(run_dir, solve=False)
     check_liftable(reduced_cfg, model.cfg)
     lift_growth(reduced_cfg, reduced.state.applied, model)
     log.info("growth.start: lifted from %s (its verified error %s)", run_dir,
@@ -168,9 +168,9 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
                      cfg.verify.refine)
             verified = verify(model, cfg.verify.refine, changed)
             if cfg.verify.lift is not None:
-                solid = verification_model(load(cfg.verify.lift))
+                solid = verification_model(load(cfg.verify.lift), cfg.verify.lift_refine)
                 log.info("lifting: the best growth onto the 3D body of %s (its mesh refined %d "
-                         "time(s), where its own runs verify), grown from rest",
+                         "time(s)), grown from rest",
                          cfg.verify.lift, solid.mesh.refine)
                 verified = dataclasses.replace(verified, lifted=lift(model, solid))
     summary = base_summary(

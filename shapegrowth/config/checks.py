@@ -91,6 +91,9 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     elif cfg.verify.lift is not None:
         errors.append("verify.lift: lifts a 2D section model (model.dim: 2 of a box, annulus "
                       "or cylinder_shell) to 3D; remove the key")
+    if cfg.verify.lift_refine is not None and cfg.verify.lift is None:
+        errors.append("verify.lift_refine: refines the mesh of verify.lift, which is not set; "
+                      "set verify.lift or remove the key")
     _check_names(cfg, errors)
     _check_expressions(cfg, growth, errors)
     if cfg.target is not None:

@@ -280,6 +280,10 @@ class VerifyConfig:
         "model (its finest level refined its verify.refine times), solved from rest and "
         "measured there; the run then leads with that number (a path as for target.mesh)",
         None)
+    lift_refine: int | None = option(
+        "refinements of the lift config's finest level for the lift (default: that config's "
+        "own verify.refine, where its runs verify; fewer where the 3D body cannot be grown "
+        "from rest there in reasonable time: say so beside the number)", None, ge=0, le=3)
 
 
 @dataclass(frozen=True)

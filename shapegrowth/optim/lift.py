@@ -8,6 +8,13 @@ stands for: (X1, X3) for the X1-X3 section of a box (the growth extruded along X
 growth's eigenvalues keep their meaning (the same three, in the same 3D frame), so nothing
 else is converted.  The 3D state is then solved from rest by continuation and the exact
 Hausdorff distance to the 3D target measured at its sample points, as :func:`verify` does.
+
+How far the 3D body leaves the reduced model is measured beside it (``departure``): every
+node of the 3D body against the position the section's own equilibrium gives it (extruded,
+or turned to the node's angle), in the section's plane for a plane model (plane stress lets
+the width change freely, and the section does not say by how much) and in full for a body
+of revolution (a hoop displacement is already a departure).  Anticlastic bending of a beam
+and a disk buckled out of axial symmetry show here, whatever the target.
 """
 
 from __future__ import annotations
@@ -17,6 +24,9 @@ import logging
 import math
 import time
 from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
 
 from .. import compat
 from ..config import GEOMETRY_PARAMS, Config, ConfigError
@@ -38,6 +48,9 @@ class Lifted:
     wall_s: float
     status: str  # "solved", or "failed: <reason>"
     config: str  # the 3D config's name
+    # the largest distance of a 3D node from where the section puts it, over the 3D target's
+    # size (None where either solve failed, or the section's state is not known)
+    departure: float | None = None
 
 
 def check_liftable(reduced: Config, solid: Config) -> None:
@@ -75,11 +88,13 @@ def lift_growth(reduced: Config, growth: Growth, solid: ForwardModel) -> None:
         interpolate_between_meshes(source, target, section.coordinates_of)
 
 
-def verification_model(solid_cfg: Config) -> Config:
+def verification_model(solid_cfg: Config, refine: int | None = None) -> Config:
     """The 3D config's own verification model: its finest level's mesh refined
-    ``verify.refine`` more times, where a 3D run of it measures its verified error; a lift
-    is measured there, so the two numbers compare."""
-    extra = solid_cfg.optimizer.levels[-1] + solid_cfg.verify.refine
+    ``verify.refine`` more times (or ``refine``, the reduced config's ``verify.lift_refine``),
+    where a 3D run of it measures its verified error; a lift is measured there, so the two
+    numbers compare."""
+    extra = solid_cfg.optimizer.levels[-1] + (solid_cfg.verify.refine if refine is None
+                                              else refine)
     return dataclasses.replace(solid_cfg, mesh=dataclasses.replace(
         solid_cfg.mesh, refine=solid_cfg.mesh.refine + extra))
 
@@ -90,8 +105,10 @@ def lift(model: ForwardModel, solid_cfg: Config) -> Lifted:
     return lifted_model(model, solid_cfg)[0]
 
 
-def lifted_model(model: ForwardModel, solid_cfg: Config) -> tuple[Lifted, ForwardModel]:
-    """:func:`lift`, and the 3D model it solved."""
+def lifted_model(model: ForwardModel, solid_cfg: Config, compare: bool = True
+                 ) -> tuple[Lifted, ForwardModel]:
+    """:func:`lift`, and the 3D model it solved; ``compare``: measure the departure from
+    ``model``'s state (False where that state is not an equilibrium)."""
     check_liftable(model.cfg, solid_cfg)
     tic = time.perf_counter()
     solid = ForwardModel.build(solid_cfg, model.comm)
@@ -104,6 +121,36 @@ def lifted_model(model: ForwardModel, solid_cfg: Config) -> tuple[Lifted, Forwar
                       solid_cfg.name), solid
     objective = Objective(solid_cfg, solid.state)
     hausdorff = objective.exact_hausdorff()
-    relative = hausdorff / objective.target_size if objective.target_size > 0 else math.inf
+    size = objective.target_size
+    relative = hausdorff / size if size > 0 else math.inf
+    leaves = departure(model, solid) if compare else None
     return Lifted(hausdorff, relative, dofs, time.perf_counter() - tic, "solved",
-                  solid_cfg.name), solid
+                  solid_cfg.name, None if leaves is None or size <= 0 else leaves / size), solid
+
+
+def departure(model: ForwardModel, solid: ForwardModel) -> float | None:
+    """The largest distance between a node of the 3D body ``solid`` (in equilibrium) and the
+    position the section ``model``'s equilibrium gives it: in the section's plane for a plane
+    model, in full for a body of revolution; None where no node lies on the section
+    (collective)."""
+    section = model.cfg.section
+    V = solid.state.V
+    n = V.dofmap.index_map.size_local
+    mine = V.tabulate_dof_coordinates()[:n]
+    everyone = solid.comm.allgather(mine)
+    offset = sum(len(c) for c in everyone[:solid.comm.rank])
+    points = np.concatenate(everyone)
+    on_section = np.zeros((len(points), 3))
+    on_section[:, :2] = section.coordinates_of(points)
+    u_section = compat.evaluate_at_points(model.state.u, on_section)[offset:offset + n]
+    predicted = section.deformed_points(mine, u_section)
+    actual = mine + solid.state.u.x.array[:3 * n].reshape(n, 3)
+    gap = actual - predicted
+    if not section.axisymmetric:  # the width is free in plane stress, held in plane strain
+        gap[:, section.out_of_plane] = 0.0
+    norms = np.linalg.norm(gap, axis=1)
+    norms = norms[~np.isnan(norms)]  # nodes just outside the section's polygon
+    local = float(norms.max()) if len(norms) else -1.0
+    largest = solid.comm.allreduce(local, op=MPI.MAX)
+    return None if largest < 0 else largest
+
