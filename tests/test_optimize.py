@@ -294,6 +294,7 @@ def test_a_failed_run_solves_its_best_design_again_from_rest(tmp_path, monkeypat
 def test_reproduce_writes_results_from_the_run_folders(tmp_path):
     """scripts/reproduce.py: the two square runs, the table with the fixed/free ratio, the
     figures; a second call reads the finished runs back instead of running them."""
+    import json
     import sys
 
     cmd = [sys.executable, str(ROOT / "scripts" / "reproduce.py"), "--ranks", "1",
@@ -303,7 +304,17 @@ def test_reproduce_writes_results_from_the_run_folders(tmp_path):
     first = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
     assert first.returncode == 0, first.stderr
     text = (tmp_path / "RESULTS.md").read_text()
-    assert "| 6 | square_circle_free | " in text and "not run" in text  # the others
+    # each row leads with the verified number, the self-reported one beside it
+    import re
+
+    row = re.search(r"\| 6 \| square_circle_free \| 2D plane strain, free frame \| "
+                    r"\*\*(\d+\.\d\d) %\*\* \| refined x1, from rest, (\d+) DOFs \| "
+                    r"(\d+\.\d\d) % \|", text)
+    assert row, text
+    free = json.loads((tmp_path / "runs" / "square_circle_free" / "summary.json").read_text())
+    assert float(row[1]) == pytest.approx(100 * free["verified"]["relative"], abs=0.006)
+    assert int(row[2]) == free["verified"]["dofs"] > free["dofs"]["state"]
+    assert "not run" in text  # the others
     assert "rho_H(square_circle_fixed) / rho_H(square_circle_free) = **" in text
     assert (tmp_path / "img" / "results" / "square_circle_free_shape.png").is_file()
     again = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
@@ -313,9 +324,11 @@ def test_reproduce_writes_results_from_the_run_folders(tmp_path):
 
 def _reproduce_module():
     import importlib.util
+    import sys
 
     spec = importlib.util.spec_from_file_location("reproduce", ROOT / "scripts" / "reproduce.py")
     module = importlib.util.module_from_spec(spec)
+    sys.modules["reproduce"] = module  # its dataclasses look their module up
     spec.loader.exec_module(module)
     return module
 
@@ -328,13 +341,17 @@ def test_reproduce_compare_flags_a_difference_beyond_the_tolerance(tmp_path):
     reproduce = _reproduce_module()
 
     def write(out: Path, scale: float, state_dofs: int = 100) -> None:
-        for _, name, _ in reproduce.SCENES:
-            (out / name).mkdir(parents=True)
-            (out / name / "summary.json").write_text(json.dumps({
+        for scene in reproduce.SCENES:
+            (out / scene.name).mkdir(parents=True)
+            (out / scene.name / "summary.json").write_text(json.dumps({
                 "dofs": {"state": state_dofs, "design": 10}, "iterations": 300,
                 "status": "max_iterations", "rho_H_final": 2.0 * scale,
-                "hausdorff_final": 0.03 * scale, "target_size": 1.0,
-                "hausdorff_from_rest": 0.04 * scale, "residual_strain": 0.5 * scale}))
+                "hausdorff_final": 0.03 * scale, "target_size": 1.0, "evaluations": 300,
+                "rho_H_from_rest": 2.0 * scale, "resumed": False,
+                "hausdorff_from_rest": 0.04 * scale, "residual_strain": 0.5 * scale,
+                "verified": {"hausdorff": 0.05 * scale, "relative": 0.05 * scale,
+                             "refine": 1, "dofs": 8 * state_dofs, "wall_s": 1.0,
+                             "branch_changed": False, "status": "solved"}}))
 
     write(tmp_path / "a", 1.0)
     write(tmp_path / "b", 1.01)
@@ -347,3 +364,4 @@ def test_reproduce_compare_flags_a_difference_beyond_the_tolerance(tmp_path):
     (tmp_path / "b" / "beam_ring" / "summary.json").unlink()
     text, agree = reproduce.compare(tmp_path / "a", tmp_path / "b", rtol=0.05)
     assert not agree and "| beam_ring | finished | True | False |" in text
+    assert "| beam_wave | verified | 0.05 | 0.0505 | 9.9e-03 | yes |" in text
