@@ -257,6 +257,10 @@ class SolverConfig:
                          "scale (mu1 + mu2 + lambda) |body|^((d-1)/d)", 1.0e-14, gt=0)
     stol: float = option("Newton stops when an update is below stol times the displacement",
                          1.0e-9, ge=0, lt=1)
+    chord_steps: int = option(
+        "an optimiser's step starts from this many chord steps at most on the last "
+        "factored tangent (the first-order predictor -K^-1 dR/dC_g dC_g and its "
+        "corrections; 0: from the last equilibrium)", 8, ge=0)
     adjoint_reuse: bool = option(
         "solve the adjoint with the last Newton step's factorization, refined against the exact "
         "tangent (false: assemble and factor the tangent anew)", True)
