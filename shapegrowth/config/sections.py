@@ -284,6 +284,11 @@ class VerifyConfig:
         "model (its finest level refined its verify.refine times), solved from rest and "
         "measured there; the run then leads with that number (a path as for target.mesh)",
         None)
+    every: int = option(
+        "also verify the design of every this many iterations during the run (refined as "
+        "`refine`, from rest; verified.csv: the verified error along the run, for the time "
+        "to a verified error; each check costs a refined solve from rest; 0: only at the "
+        "end)", 0, ge=0)
     lift_refine: int | None = option(
         "refinements of the lift config's finest level for the lift (default: that config's "
         "own verify.refine, where its runs verify; fewer where the 3D body cannot be grown "
