@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from reproduce import ROOT, finished, shapegrowth_command  # noqa: E402  (a sibling script)
+from reproduce import ROOT, shapegrowth_command  # noqa: E402  (a sibling script)
 
 TOLERANCE = 3.0  # the optimiser's shape error may be this multiple of the known growth's
 FLOOR = 1e-3  # ... or this fraction of the target size, where the known growth is exact
@@ -82,6 +82,12 @@ def _run(args: list[str], ranks: int, log: Path) -> None:
                               cwd=ROOT, env=env)
     if done.returncode not in (0, 1):
         raise SystemExit(f"reachable: '{' '.join(args)}' exited {done.returncode} (see {log})")
+
+
+def finished(folder: Path) -> dict | None:
+    """The run's (or the solve's) summary.json, or None before it ends."""
+    summary = folder / "summary.json"
+    return json.loads(summary.read_text()) if summary.exists() else None
 
 
 def relative(summary: dict) -> float:
