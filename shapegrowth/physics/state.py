@@ -46,6 +46,7 @@ from .growth import Growth
 from .kinematics import Kinematics
 from .material import MooneyRivlin, deformation_gradient
 from .options import SolverOptions
+from .transfer import interpolate_between_meshes
 
 log = logging.getLogger(__name__)
 
@@ -307,6 +308,18 @@ class StateProblem:
         self._equilibrium = None
         self._first_step_scale = step_scale
 
+    def carry(self, source: StateProblem) -> None:
+        """Start the next solve from ``source``'s displacement on this mesh (a coarser
+        level's equilibrium, exact on a nested refinement): Newton at the full growth from
+        there, no load steps.  Where it does not converge the solve reports so at once (the
+        driver then retries from rest).  Measured on scene 4's section: from rest, the
+        second level's growth found no equilibrium beyond 3.6 % of it (the flat disk's
+        bifurcation), while the first level's optimum is a buckled cone already."""
+        interpolate_between_meshes(source.u, self.u)
+        self.u.x.scatter_forward()
+        self._at_rest = False
+        self._equilibrium = None  # solve: a carried guess, not an equilibrium
+
     def snapshot(self) -> np.ndarray:
         """A copy of the owned displacement DOFs."""
         n = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
@@ -332,9 +345,11 @@ class StateProblem:
             start, scale0 = self.target.identity_values(), 0.0
             dt = cont.initial_step * self._first_step_scale
             self._first_step_scale = 1.0
+        elif self._equilibrium is None:  # carried (carry): Newton at the full growth
+            start, scale0, dt = end, 1.0, 1.0
         else:
-            assert self._equilibrium is not None  # set whenever the state leaves rest
             start, scale0, dt = self._equilibrium, 1.0, 1.0
+        carried = not self._at_rest and self._equilibrium is None
         # progress per load step from rest; warm re-solves (optimisation) only in --verbose
         level = logging.INFO if self._at_rest else logging.DEBUG
         t = 0.0
@@ -371,6 +386,10 @@ class StateProblem:
             dt /= 2.0
             log.log(level, "  load step at t = %.4f failed (%s after %d iterations): "
                     "step cut to %.3g", trial, reason, its, dt)
+            if carried:  # smaller steps toward the same growth cannot help
+                report.converged = False
+                report.reason = f"no equilibrium near the carried state ({reason})"
+                break
             if dt < cont.min_step or report.steps + report.failed_steps >= cont.max_steps:
                 report.converged = False
                 report.reason = f"no equilibrium beyond {t:.4f} of the growth ({reason})"
