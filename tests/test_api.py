@@ -217,6 +217,17 @@ def test_a_callback_that_raises_ends_the_run_failed_saying_so():
     assert len(result.history) == 3 and np.isfinite(result.best).all()
 
 
+def test_the_iteration_budget_is_a_stop_not_a_failure():
+    """L-BFGS asks past its budget (NLopt calls the objective once more after the driver's
+    stop, which may still be pending there): whatever the budget, the run ends with
+    max_iterations or converged, never failed."""
+    for budget in range(1, 13):
+        problem = Quadratic(comm=MPI.COMM_SELF)
+        result = sg.Driver(problem, sg.DriverSettings("q", "lbfgs", budget, (1.0,)), []).run()
+        assert not result.outcome.is_failure, (budget, str(result.outcome))
+        assert len(result.history) <= budget
+
+
 # ---- the typed summary ---------------------------------------------------------------------------
 def test_outcome_text_round_trips():
     for text in ("converged", "max_iterations", "failed: no equilibrium beyond 0.5000"):

@@ -213,14 +213,19 @@ class Driver:
 
         if self.failure is not None:  # L-BFGS may call once more after a stop
             raise nlopt.ForcedStop(self.failure)
+        if self._over_budget:
+            raise nlopt.ForcedStop("iteration budget spent")
         k = len(self.history)
         try:
             return self._objective_body(x, grad)
         except nlopt.ForcedStop:
             raise
         except Exception as err:
-            # a second call may still see the first stop pending (a SystemError): the first
-            # reason stands
+            # a call after a stop of ours may see that stop still pending (a SystemError
+            # from the first C function called: disk_cone_from_axi, the call after the
+            # budget's stop at iteration 40): the stop stands, it is no failure
+            if self._over_budget:
+                raise nlopt.ForcedStop("iteration budget spent") from None
             if self.failure is None:
                 self.failure = f"at iteration {k}: {type(err).__name__}: {err}"
                 log.error("%s", self.failure)
