@@ -201,6 +201,33 @@ def test_a_non_finite_objective_ends_the_run_failed_with_the_best_design():
     assert np.isfinite(result.best).all()
 
 
+def test_a_callback_that_raises_ends_the_run_failed_saying_so():
+    """NLopt turns an exception in its objective into a generic failure that reads like its
+    line search giving up; the driver reports it as what it is, with the best design."""
+
+    class Broken(sg.Callback):
+        def evaluated(self, step):
+            if step.iteration == 2:
+                raise OSError("disk full")
+
+    problem = Quadratic(comm=MPI.COMM_SELF)
+    result = sg.Driver(problem, sg.DriverSettings("q", "lbfgs", 10, (1.0,)), [Broken()]).run()
+    assert result.outcome.is_failure
+    assert str(result.outcome) == "failed: at iteration 2: OSError: disk full"
+    assert len(result.history) == 3 and np.isfinite(result.best).all()
+
+
+def test_the_iteration_budget_is_a_stop_not_a_failure():
+    """L-BFGS asks past its budget (NLopt calls the objective once more after the driver's
+    stop, which may still be pending there): whatever the budget, the run ends with
+    max_iterations or converged, never failed."""
+    for budget in range(1, 13):
+        problem = Quadratic(comm=MPI.COMM_SELF)
+        result = sg.Driver(problem, sg.DriverSettings("q", "lbfgs", budget, (1.0,)), []).run()
+        assert not result.outcome.is_failure, (budget, str(result.outcome))
+        assert len(result.history) <= budget
+
+
 # ---- the typed summary ---------------------------------------------------------------------------
 def test_outcome_text_round_trips():
     for text in ("converged", "max_iterations", "failed: no equilibrium beyond 0.5000"):

@@ -34,3 +34,37 @@ def test_bench_writes_consistent_cases_ratios_and_mpi_run(tmp_path):
     assert mpi["ranks"] == 2 and mpi["dofs"] == cases[1]["dofs"]
     assert mpi["speedup"] == pytest.approx(cases[1]["iteration_s"] / mpi["iteration_s"])
     assert mpi["case"]["objective"] == pytest.approx(cases[1]["objective"], rel=1e-9)
+
+
+def test_bench_runs_times_a_whole_run_to_its_verified_error(tmp_path):
+    """bench --runs: the free square on a coarse mesh, checked every 2 iterations: the time
+    to a verified error is the run's clock at the first check below it (its verification
+    time apart), the best verified error is the least of the checks and the end, and
+    bench.json keeps the per-iteration part it already held."""
+    from shapegrowth.io.along import read_checks
+
+    (tmp_path / "bench.json").write_text('{"cases": []}')
+    done = run_subprocess(["bench", "--runs", "square_circle_free", "--ranks", "1", "--out",
+                           tmp_path, "-q", "--set", "optimizer.max_iterations=6",
+                           "--set", "mesh.size=1.0", "--set", "verify.every=2"], timeout=600)
+    assert done.returncode == 0, done.stderr
+    bench = read_json(tmp_path / "bench.json")
+    assert bench["cases"] == [] and len(bench["runs"]) == 1
+    run = bench["runs"][0]
+    folder = tmp_path / "runs" / "square_circle_free"
+    checks = read_checks(folder / "verified.csv")
+    summary = read_json(folder / "summary.json")
+    assert [c.iteration for c in checks] == [1, 3, 5]
+    verified = [c.verified_relative for c in checks] + [summary["verified"]["relative"]]
+    assert run["best_verified"] == min(verified)
+    assert run["final_verified"] == summary["verified"]["relative"]
+    assert run["run_s"] == pytest.approx(summary["wall_time_s"]
+                                         - checks[-1].verification_seconds)
+    assert run["split"]["verification"] > checks[-1].verification_seconds
+    assert run["peak_memory_mb"] == summary["peak_memory_mb"] > 50
+    hit = next((c for c in checks if c.verified_relative <= 0.01), None)
+    assert run["to_1pc_s"] == (hit.seconds if hit else None) or (
+        hit is None and summary["verified"]["relative"] <= 0.01)
+    # a named run that does not exist: one line naming the runs there are
+    bad = run_subprocess(["bench", "--runs", "nothing", "--out", tmp_path, "-q"])
+    assert bad.returncode == 2 and "bench --runs: no run named nothing" in bad.stderr

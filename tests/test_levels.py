@@ -9,10 +9,12 @@ import csv
 import numpy as np
 import pytest
 from conftest import CONFIGS, read_json, run_cli
+from mpi4py import MPI
 
 import shapegrowth as sg
 from shapegrowth import compat
 from shapegrowth.optim.levels import level_budgets, level_config
+from shapegrowth.optim.problem import StateSolveError
 
 ARC = CONFIGS / "tiny" / "beam_arc.yaml"
 SQUARE = CONFIGS / "tiny" / "square_disk.yaml"
@@ -66,6 +68,35 @@ def test_the_design_carries_over_exactly(degree):
         integrals = [model.integrate(f) for model, f in
                      ((coarse.model, coarse.design[k]), (fine.model, field))]
         assert integrals[1] == pytest.approx(integrals[0], rel=1e-12)
+
+
+@pytest.mark.mpi
+def test_the_next_level_starts_from_the_last_levels_equilibrium():
+    """A level's first state: Newton at the full growth from the coarser level's
+    equilibrium carried onto the refined mesh (one step, fewer Newton iterations than the
+    load steps from rest), the same equilibrium as from rest; a carried state too far from
+    one is reported at once, without load steps."""
+    cfg = sg.load_config(ARC, ["optimizer.levels=[0, 1]", "growth.start=target"])
+    coarse = sg.ReducedFunctional(sg.build_model(level_config(cfg, 0)))
+    m = coarse.current()
+    coarse.evaluate(m, gradient=False)
+    fine = sg.ReducedFunctional(sg.build_model(level_config(cfg, 1)))
+    fine.carry_design(coarse, m)
+    carried = fine.evaluate(fine.current(), gradient=False).report
+    u_carried = fine.model.state.snapshot()
+    fine.restart_from_rest()
+    rest = fine.evaluate(fine.current(), gradient=False).report
+    assert carried.converged and rest.converged
+    assert carried.steps == 1 and rest.steps > 1
+    assert carried.newton_iterations < rest.newton_iterations
+    scale = fine.comm.allreduce(np.abs(u_carried).max(), op=MPI.MAX)
+    gap = fine.comm.allreduce(np.abs(u_carried - fine.model.state.snapshot()).max(), op=MPI.MAX)
+    assert gap < 1e-6 * scale
+    far = sg.ReducedFunctional(sg.build_model(level_config(cfg, 1)))
+    far.carry_design(coarse, m)
+    far.model.state.u.x.array[:] *= -3.0  # the arc bent the other way, three times over
+    with pytest.raises(StateSolveError, match="carried state"):
+        far.evaluate(far.current(), gradient=False)
 
 
 @pytest.mark.mpi

@@ -138,3 +138,33 @@ def test_the_physical_branch_mode_solves_from_rest_every_k_iterations(tmp_path, 
               for n in ("warm", "rest"))
     assert hr["objective"] == pytest.approx(hw["objective"], rel=1e-7)
     assert rest.summary.objective_final == pytest.approx(warm.summary.objective_final, rel=1e-7)
+
+
+@pytest.mark.mpi
+def test_verify_every_writes_the_verified_error_along_the_run(shared_tmp):
+    """verify.every: 2: verified.csv holds iterations 1 and 3, each the design just
+    evaluated grown from rest on the refined mesh; iteration 3 is the run's last and best
+    here, so its row is the run's own final verification to round-off.  The clock of a
+    row leaves the checks out, and a resumed run does not check a replayed iteration
+    again."""
+    from shapegrowth.io.along import first_below, read_checks
+
+    out = shared_tmp / "along"
+    sets = ["--set", "optimizer.max_iterations=4", "--set", "verify.every=2"]
+    assert run_cli("run", ARC, "--out", out, "-q", *sets) == 0
+    checks = read_checks(out / "verified.csv")
+    assert [c.iteration for c in checks] == [1, 3] and [c.level for c in checks] == [0, 0]
+    s = read_json(out / "summary.json")
+    rows = (out / "history.csv").read_text().splitlines()[1:]
+    objective = [float(r.split(",")[1]) for r in rows]
+    assert int(np.argmin(objective)) == 3  # the last design is the best: the final one
+    assert checks[1].verified_relative == pytest.approx(s["verified"]["relative"], rel=1e-9)
+    assert checks[1].self_relative == pytest.approx(s["hausdorff_final"] / s["target_size"],
+                                                    rel=1e-9)
+    assert 0 < checks[0].seconds < checks[1].seconds < s["wall_time_s"]
+    assert 0 < checks[0].verification_seconds < checks[1].verification_seconds
+    assert checks[1].seconds + checks[1].verification_seconds < s["wall_time_s"]
+    assert first_below(checks, 1.0) is checks[0] and first_below(checks, 0.0) is None
+    # resumed after the end: every iteration is replayed, nothing is checked again
+    assert run_cli("run", ARC, "--out", out, "-q", "--resume", *sets) == 0
+    assert len(read_checks(out / "verified.csv")) == 2

@@ -51,7 +51,7 @@ log = logging.getLogger(__name__)
 BEAM_WAVE_GROWTH = ("((1 + (0.94*cos(2*pi*x1))**2)**0.5"
                     "*(1 - x3*(21.2*exp(-(x1/0.05)**2) - 5.92*sin(2*pi*x1))))**2")
 DEFAULT_SIZES = (0.05, 0.025, 0.0125)
-DEFAULT_CONFIG = Path(__file__).resolve().parents[1] / "configs" / "beam_wave.yaml"
+DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "configs" / "beam_wave.yaml"
 DEFAULT_OVERRIDES = [f'growth.eigenvalues.initial=["{BEAM_WAVE_GROWTH}", 1.0, 1.0]']
 
 

@@ -87,6 +87,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="ranks of the MPI run of the largest case (1: none; default 2)")
     bench.add_argument("--steps", type=int, default=3,
                        help="optimisation-like iterations measured per case (default 3)")
+    bench.add_argument("--runs", nargs="?", const="all", default=None, metavar="NAME,...",
+                       help="time to a verified shape error on whole runs (bench.json "
+                            "`runs`; all of them, or those named); --set applies to each run")
     bench.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
     return parser
 
@@ -183,6 +186,8 @@ def _bench(cfg, args) -> int:
     from . import bench
 
     out = args.out or Path("results/bench")
+    if args.runs is not None:
+        return _bench_runs(args, out)
     if args.case:  # one case in this process (launched by the harness below)
         io.write_json(out / "case.json", bench.measure_case(cfg, args.steps))
         return EXIT_OK
@@ -199,6 +204,22 @@ def _bench(cfg, args) -> int:
         log.info("mpirun -n %d speedup %.2f at %d DOFs (%.2f over one thread on one rank)",
                  mpi["ranks"], mpi["speedup"], mpi["dofs"], mpi["speedup_over_one_thread"])
     log.info("wrote %s", out / "bench.json")
+    return EXIT_OK
+
+
+def _bench_runs(args, out: Path) -> int:
+    from ..io import files as io
+    from . import bench_runs
+
+    only = [] if args.runs == "all" else [n for n in args.runs.split(",") if n]
+    # the per-iteration bench's default growth belongs to its own config, not to the runs
+    overrides = args.runs_overrides
+    timings = bench_runs.run_runs(out, args.ranks, only, overrides)
+    path = out / "bench.json"
+    result = io.read_json(path) if path.is_file() else {}
+    result["runs"] = bench_runs.as_json(timings)
+    io.write_json(path, result)
+    log.info("wrote %s", path)
     return EXIT_OK
 
 
@@ -229,6 +250,8 @@ def main(argv: list[str] | None = None) -> int:
 
     level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
     logs.configure(level)
+    if args.command == "bench" and args.runs is not None:  # no config of its own
+        args.runs_overrides, args.overrides = args.overrides, []
     if args.command == "bench" and args.config is None:
         from .bench import DEFAULT_CONFIG, DEFAULT_OVERRIDES
 

@@ -16,10 +16,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from mpi4py import MPI
 
 from .. import compat
 from ..config import load, resolved
 from ..io import files as io
+from ..io.along import VerifyEvery
 from ..io.checkpoint import CheckpointFile
 from ..io.plotting import write_frame_png, write_shape_png
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
@@ -93,6 +95,9 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     previous: tuple[ReducedFunctional, np.ndarray] | None = None
     reached: tuple[ForwardModel, ReducedFunctional, Driver, DriverResult] | None = None
     failure: Outcome | None = None
+    checked = 0.0  # seconds of verify.every's checks so far
+    if not resume and MPI.COMM_WORLD.rank == 0 and (out / "verified.csv").exists():
+        (out / "verified.csv").unlink()  # a new run's checks only
     for k in range(len(levels)):
         level_cfg = level_config(cfg, k)
         with timer("forward"):
@@ -110,8 +115,15 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         callbacks = [ProgressLog(), CheckpointFile(path, rf, cfg.output.checkpoint_every,
                                                    resume and (k == 0 or path.is_file()), timer),
                      RetryFromRest(rf), FromRestEvery(rf, cfg.optimizer.from_rest_every)]
+        along = None
+        if cfg.verify.every:
+            along = VerifyEvery(model, cfg.verify.refine, cfg.verify.every,
+                                rf.objective.target_size, out / "verified.csv", timer, k,
+                                len(history), checked)
+            callbacks.append(along)
         driver = Driver(rf, DriverSettings.from_config(level_cfg), callbacks)
         result = driver.run()
+        checked = along.spent if along is not None else checked
         timer.totals["optimizer"] += result.optimizer_seconds
         history += [dataclasses.replace(r, iteration=len(history) + i, level=k)
                     for i, r in enumerate(result.history)]

@@ -16,7 +16,7 @@ from ..io.summary import Dofs, Probe, RunSummary, SolveMeasures
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
 from ..status import Outcome
-from ..timing import Timer
+from ..timing import Timer, peak_memory_mb
 from ..version import __version__
 
 log = logging.getLogger(__name__)
@@ -132,6 +132,7 @@ def base_summary(cfg: Config, model: ForwardModel, report: SolveReport, status: 
         "dolfinx_version": compat.DOLFINX_VERSION,
         "mesh": str(model.domain.path),
         "config": cfg.to_dict(),
+        "peak_memory_mb": peak_memory_mb(model.comm),
     }
     values.update(measured)
     return RunSummary(**values)

@@ -257,6 +257,10 @@ class SolverConfig:
                          "scale (mu1 + mu2 + lambda) |body|^((d-1)/d)", 1.0e-14, gt=0)
     stol: float = option("Newton stops when an update is below stol times the displacement",
                          1.0e-9, ge=0, lt=1)
+    chord_steps: int = option(
+        "an optimiser's step starts from this many chord steps at most on the last "
+        "factored tangent (the first-order predictor -K^-1 dR/dC_g dC_g and its "
+        "corrections; 0: from the last equilibrium)", 8, ge=0)
     adjoint_reuse: bool = option(
         "solve the adjoint with the last Newton step's factorization, refined against the exact "
         "tangent (false: assemble and factor the tangent anew)", True)
@@ -280,6 +284,11 @@ class VerifyConfig:
         "model (its finest level refined its verify.refine times), solved from rest and "
         "measured there; the run then leads with that number (a path as for target.mesh)",
         None)
+    every: int = option(
+        "also verify the design of every this many iterations during the run (refined as "
+        "`refine`, from rest; verified.csv: the verified error along the run, for the time "
+        "to a verified error; each check costs a refined solve from rest; 0: only at the "
+        "end)", 0, ge=0)
     lift_refine: int | None = option(
         "refinements of the lift config's finest level for the lift (default: that config's "
         "own verify.refine, where its runs verify; fewer where the 3D body cannot be grown "

@@ -78,6 +78,7 @@ class RunSummary:
     solve: SolveMeasures | None = None
     optimization: OptimizationMeasures | None = None
     verified: Verified | None = None  # a run's verified shape error (verify.enabled)
+    peak_memory_mb: float | None = None  # resident memory high-water mark, summed over ranks
 
     @property
     def relative_error(self) -> float | None:
@@ -108,6 +109,7 @@ class RunSummary:
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> RunSummary:
         names = {f.name for f in dataclasses.fields(cls)} - {"solve", "optimization", "verified"}
+        names -= {"peak_memory_mb"} - set(data)  # older summaries have none
         common: dict[str, Any] = {k: data.get(k) for k in names}
         common["status"] = Outcome.parse(str(data["status"]))
         common["dofs"] = Dofs(**data["dofs"])

@@ -205,6 +205,33 @@ class Driver:
 
     # ---- NLopt's objective -----------------------------------------------------------------
     def _objective(self, x: np.ndarray, grad: np.ndarray) -> float:
+        """NLopt's objective.  NLopt turns any exception raised here into a generic failure
+        that reads like its own line search giving up, so one that is not a stop of ours
+        (a callback's OSError, say) ends the run as failed, with its message and the best
+        design so far, instead of passing for round-off."""
+        import nlopt
+
+        if self.failure is not None:  # L-BFGS may call once more after a stop
+            raise nlopt.ForcedStop(self.failure)
+        if self._over_budget:
+            raise nlopt.ForcedStop("iteration budget spent")
+        k = len(self.history)
+        try:
+            return self._objective_body(x, grad)
+        except nlopt.ForcedStop:
+            raise
+        except Exception as err:
+            # a call after a stop of ours may see that stop still pending (a SystemError
+            # from the first C function called: disk_cone_from_axi, the call after the
+            # budget's stop at iteration 40): the stop stands, it is no failure
+            if self._over_budget:
+                raise nlopt.ForcedStop("iteration budget spent") from None
+            if self.failure is None:
+                self.failure = f"at iteration {k}: {type(err).__name__}: {err}"
+                log.error("%s", self.failure)
+            raise nlopt.ForcedStop(self.failure) from None
+
+    def _objective_body(self, x: np.ndarray, grad: np.ndarray) -> float:
         import nlopt
 
         tic = time.perf_counter()

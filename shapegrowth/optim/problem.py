@@ -155,11 +155,14 @@ class ReducedFunctional:
     def carry_design(self, source: ReducedFunctional, m: np.ndarray) -> None:
         """Take ``source``'s design ``m`` as this functional's current design: each design
         field interpolated onto this mesh (exact on a nested refinement of source's mesh;
-        collective).  The next evaluation applies it."""
+        collective).  The next evaluation applies it, its state solved from source's last
+        equilibrium carried onto this mesh (the branch the last level followed; from rest
+        where that fails)."""
         for k, (rho, mine) in enumerate(zip(source.design, self.design)):
             rho.x.array[:source.n_owned] = m[k * source.n_owned:(k + 1) * source.n_owned]
             rho.x.scatter_forward()
             interpolate_between_meshes(rho, mine)
+        self.model.state.carry(source.model.state)
         self._forget()
 
     def stopping_scale(self) -> float:

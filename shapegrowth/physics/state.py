@@ -13,6 +13,15 @@ step falls below ``solver.continuation.min_step``.  Each step starts from the
 secant extrapolation of the last two equilibria (on the half-circle bend of
 the scene-1 beam this halves the Newton iterations: 69 instead of 130).  The
 last converged state is always kept.
+
+An optimiser's step (a warm solve from the last equilibrium) starts from a first-order
+predictor instead: du = -K^-1 R(u; C_g new) ~ -K^-1 dR/dC_g dC_g, with K the tangent the
+last Newton step factored (the factors the adjoint reuses), repeated as chord steps while
+each at least halves the residual (``solver.chord_steps`` at most, each a back-substitution
+and a residual assembly instead of a factorisation).  Newton then
+stops at the residual it would have stopped at without the predictor (``rtol`` of the
+residual at the last equilibrium under the new growth, or ``atol``), so the predictor
+changes the cost, not the accuracy.
 """
 
 from __future__ import annotations
@@ -37,6 +46,7 @@ from .growth import Growth
 from .kinematics import Kinematics
 from .material import MooneyRivlin, deformation_gradient
 from .options import SolverOptions
+from .transfer import interpolate_between_meshes
 
 log = logging.getLogger(__name__)
 
@@ -53,6 +63,7 @@ class SolveReport:
     steps: int = 0
     failed_steps: int = 0
     newton_iterations: int = 0
+    chord_steps: int = 0  # predictor steps on the last factors (no factorisation)
     reached: float = 1.0  # fraction of the requested growth change in equilibrium
     seconds: float = 0.0
     history: list[tuple[float, int]] = field(default_factory=list)  # (t, iterations)
@@ -116,6 +127,8 @@ class StateProblem:
 
         self.A = dolfinx.fem.petsc.create_matrix(self.jacobian_form)
         self.b = dolfinx.fem.petsc.create_vector(self.residual_form)
+        self._chord_b = dolfinx.fem.petsc.create_vector(self.residual_form)
+        self._chord_du = self.A.createVecRight()
         self.snes = self._create_snes()
         self.jacobian_assemblies = 0  # the SNES's linear solver holds factors once this is > 0
         self._at_rest = True
@@ -220,13 +233,57 @@ class StateProblem:
         A.assemble()
         self.jacobian_assemblies += 1
 
-    def _newton(self) -> tuple[bool, int, str]:
+    chord_contraction = 0.5  # a chord step must halve the residual to go on
+
+    def _chord(self) -> tuple[float, int]:
+        """The predictor: chord steps u -= K_old^-1 R(u) on the state solver's last factors
+        while each leaves at most ``chord_contraction`` of the residual; a step that does not
+        reduce it is undone.  Returns the residual norm before the first step (the reference
+        of Newton's relative tolerance) and the steps kept (collective)."""
+        x, b, du = self.u.vector, self._chord_b, self._chord_du
+        ksp = self.snes.getKSP()
+        self.assemble_residual(x, b)
+        r0 = previous = b.norm()
+        target = max(self.cfg.solver.rtol * r0, self.snes.getTolerances()[1])
+        kept = 0
+        with self.options.pushed():
+            for _ in range(self.cfg.solver.chord_steps):
+                if previous <= target:
+                    break
+                ksp.solve(b, du)
+                if ksp.getConvergedReason() < 0:
+                    break
+                x.axpy(-1.0, du)
+                x.ghostUpdate(addv=_INSERT, mode=_FORWARD)
+                self.assemble_residual(x, b)
+                r = b.norm()
+                if not np.isfinite(r) or r >= previous:  # undo it
+                    x.axpy(1.0, du)
+                    x.ghostUpdate(addv=_INSERT, mode=_FORWARD)
+                    break
+                kept += 1
+                contraction, previous = r / previous, r
+                if contraction > self.chord_contraction:
+                    break
+        self.u.x.scatter_forward()
+        return r0, kept
+
+    def _newton(self, reference: float | None = None) -> tuple[bool, int, str]:
+        """Newton's method from ``self.u``; ``reference``: the residual norm its relative
+        tolerance is taken of (default: the residual at the start)."""
         x = self.u.vector
+        tolerances = self.snes.getTolerances()  # rtol, atol, stol, max_it
+        if reference is not None:  # the same stopping residual as without the predictor
+            self.snes.setTolerances(rtol=0.0, atol=max(tolerances[0] * reference,
+                                                       tolerances[1]))
         try:
             with self.options.pushed():
                 self.snes.solve(None, x)
         except PETSc.Error as err:  # e.g. a factorisation that broke down
             return False, self.snes.getIterationNumber(), f"PETSc error {err.ierr}"
+        finally:
+            if reference is not None:
+                self.snes.setTolerances(rtol=tolerances[0], atol=tolerances[1])
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
         self.u.x.scatter_forward()
@@ -250,6 +307,18 @@ class StateProblem:
         self._at_rest = True
         self._equilibrium = None
         self._first_step_scale = step_scale
+
+    def carry(self, source: StateProblem) -> None:
+        """Start the next solve from ``source``'s displacement on this mesh (a coarser
+        level's equilibrium, exact on a nested refinement): Newton at the full growth from
+        there, no load steps.  Where it does not converge the solve reports so at once (the
+        driver then retries from rest).  Measured on scene 4's section: from rest, the
+        second level's growth found no equilibrium beyond 3.6 % of it (the flat disk's
+        bifurcation), while the first level's optimum is a buckled cone already."""
+        interpolate_between_meshes(source.u, self.u)
+        self.u.x.scatter_forward()
+        self._at_rest = False
+        self._equilibrium = None  # solve: a carried guess, not an equilibrium
 
     def snapshot(self) -> np.ndarray:
         """A copy of the owned displacement DOFs."""
@@ -276,9 +345,11 @@ class StateProblem:
             start, scale0 = self.target.identity_values(), 0.0
             dt = cont.initial_step * self._first_step_scale
             self._first_step_scale = 1.0
+        elif self._equilibrium is None:  # carried (carry): Newton at the full growth
+            start, scale0, dt = end, 1.0, 1.0
         else:
-            assert self._equilibrium is not None  # set whenever the state leaves rest
             start, scale0, dt = self._equilibrium, 1.0, 1.0
+        carried = not self._at_rest and self._equilibrium is None
         # progress per load step from rest; warm re-solves (optimisation) only in --verbose
         level = logging.INFO if self._at_rest else logging.DEBUG
         t = 0.0
@@ -289,10 +360,15 @@ class StateProblem:
             trial = t + dt
             self.applied.assign(self.applied.blend(start, end, trial))
             self.load_scale.value = scale0 + trial * (1.0 - scale0)
+            reference = None
             if previous is not None:  # secant predictor along the equilibrium path
                 t_prev, u_prev = previous
                 self.u.x.array[:] = saved + (trial - t) / (t - t_prev) * (saved - u_prev)
-            ok, its, reason = self._newton()
+            elif scale0 == 1.0 and t == 0.0 and self.cfg.solver.chord_steps and \
+                    self.jacobian_assemblies > 0:  # a warm step: the tangent predictor
+                reference, chords = self._chord()
+                report.chord_steps += chords
+            ok, its, reason = self._newton(reference)
             report.newton_iterations += its
             if ok:
                 previous = (t, saved.copy())
@@ -310,6 +386,10 @@ class StateProblem:
             dt /= 2.0
             log.log(level, "  load step at t = %.4f failed (%s after %d iterations): "
                     "step cut to %.3g", trial, reason, its, dt)
+            if carried:  # smaller steps toward the same growth cannot help
+                report.converged = False
+                report.reason = f"no equilibrium near the carried state ({reason})"
+                break
             if dt < cont.min_step or report.steps + report.failed_steps >= cont.max_steps:
                 report.converged = False
                 report.reason = f"no equilibrium beyond {t:.4f} of the growth ({reason})"

@@ -21,7 +21,8 @@ from .. import compat
 def interpolate_between_meshes(source: dolfinx.fem.Function, target: dolfinx.fem.Function,
                                to_source: Callable[[np.ndarray], np.ndarray] | None = None
                                ) -> None:
-    """target := source at target's DOF coordinates (collective on the mesh's comm);
+    """target := source at target's DOF coordinates (collective on the mesh's comm; a
+    vector field node by node);
     ``to_source`` maps those points (n, 3) to the source mesh's coordinates (n, k), e.g. a
     3D body's points to the section its 2D model meshes (the lift)."""
     comm: MPI.Comm = target.function_space.mesh.comm
@@ -33,12 +34,12 @@ def interpolate_between_meshes(source: dolfinx.fem.Function, target: dolfinx.fem
         mapped = to_source(points)
         points = np.zeros((len(mapped), 3))
         points[:, :mapped.shape[1]] = mapped
-    values = compat.evaluate_at_points(source, points)[:, 0]
-    missing = np.isnan(values)
+    values = compat.evaluate_at_points(source, points)  # (n, block size)
+    missing = np.isnan(values[:, 0])
     if missing.all():
         raise ValueError("the two meshes do not overlap")
     if missing.any():
         found = np.flatnonzero(~missing)
         nearest = cKDTree(points[found]).query(points[missing])[1]
         values[missing] = values[found[nearest]]
-    target.x.array[:] = values[offset:offset + len(coords)]
+    target.x.array[:] = values[offset:offset + len(coords)].reshape(-1)

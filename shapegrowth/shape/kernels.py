@@ -46,11 +46,16 @@ _threads_decided = False
 def one_thread_per_rank() -> None:
     """Under MPI the ranks already fill the cores: numba threads would oversubscribe them
     (2 ranks x 2 threads on 2 cores: rho_H no faster than on one rank).  NUMBA_NUM_THREADS,
-    when set, decides.  Called before the kernels run (not at import: importing changes
-    nothing)."""
+    when set, decides.  The threading layer is OpenMP's (or numba's workqueue) before TBB's:
+    at exit TBB's scheduler waits for its workers, which only yield, and on a machine whose
+    cores other jobs fill a finished serial run hung there for minutes (measured: still
+    waiting after 5 min beside a 2-rank run on 2 cores); NUMBA_THREADING_LAYER, when set,
+    decides.  Called before the kernels run (not at import: importing changes nothing)."""
     global _threads_decided
     if not _threads_decided:
         _threads_decided = True
+        if "NUMBA_THREADING_LAYER" not in os.environ:
+            numba.config.THREADING_LAYER_PRIORITY = ["omp", "workqueue", "tbb"]  # type: ignore[attr-defined]
         if MPI.COMM_WORLD.size > 1 and "NUMBA_NUM_THREADS" not in os.environ:
             numba.set_num_threads(1)
 
