@@ -141,7 +141,9 @@ def test_a_design_changed_on_one_rank_only_is_solved_on_every_rank(shared_tmp):
     """The reduced functional caches the last design; its share differs from rank to rank.
     A design changed on the last rank only (as the best design of one alpha stage, taken up
     by the next) is a new design on every rank: all of them solve it (the ranks once
-    disagreed and hung in different collectives), and J is that of a fresh evaluation."""
+    disagreed and hung in different collectives), and J is that of a fresh evaluation: equal
+    to Newton's tolerance (the cached path starts from m0's equilibrium with the tangent
+    predictor, the fresh one from rest; measured 2e-9 apart), far from J(m0) (1e-6 apart)."""
     from shapegrowth.optim.problem import ReducedFunctional
     from shapegrowth.physics.model import ForwardModel
 
@@ -155,5 +157,5 @@ def test_a_design_changed_on_one_rank_only_is_solved_on_every_rank(shared_tmp):
         m1 *= 1.02
     cached = rf.evaluate(m1).value.total
     fresh = ReducedFunctional(ForwardModel.build(cfg)).evaluate(m1).value.total
-    assert cached == pytest.approx(fresh, rel=1e-9)
+    assert cached == pytest.approx(fresh, rel=1e-7)
     assert cached != pytest.approx(rf.evaluate(m0).value.total, rel=1e-6)
