@@ -34,6 +34,19 @@ def test_bench_writes_consistent_cases_ratios_and_mpi_run(tmp_path):
     assert mpi["ranks"] == 2 and mpi["dofs"] == cases[1]["dofs"]
     assert mpi["speedup"] == pytest.approx(cases[1]["iteration_s"] / mpi["iteration_s"])
     assert mpi["case"]["objective"] == pytest.approx(cases[1]["objective"], rel=1e-9)
+    # --scaling into the same folder: bench.json keeps the cases and gains the table
+    done = run_subprocess(["bench", CONFIGS / "tiny" / "beam_wave.yaml", "--sizes", "0.2",
+                           "--steps", "1", "--scaling", "2", "--out", tmp_path, "-q"],
+                          timeout=600)
+    assert done.returncode == 0, done.stderr
+    bench = read_json(tmp_path / "bench.json")
+    assert bench["cases"] == cases
+    scaling = bench["scaling"]
+    assert [r["ranks"] for r in scaling["rows"]] == [1, 2] and scaling["mesh_size"] == 0.2
+    one, two = scaling["cases"]["1"], scaling["cases"]["2"]
+    assert two["ranks"] == 2 and two["objective"] == pytest.approx(one["objective"], rel=1e-9)
+    assert scaling["rows"][1]["speedup_iteration"] == pytest.approx(
+        one["iteration_s"] / two["iteration_s"])
 
 
 def test_bench_runs_times_a_whole_run_to_its_verified_error(tmp_path):
@@ -68,3 +81,30 @@ def test_bench_runs_times_a_whole_run_to_its_verified_error(tmp_path):
     # a named run that does not exist: one line naming the runs there are
     bad = run_subprocess(["bench", "--runs", "nothing", "--out", tmp_path, "-q"])
     assert bad.returncode == 2 and "bench --runs: no run named nothing" in bad.stderr
+
+
+def test_amdahls_serial_fraction_is_recovered_and_oversubscribed_runs_are_not_fitted():
+    """A synthetic case set with T(p) = T(1) (f + (1 - f)/p) per part: the fit returns each
+    part's f and the speedup it projects; a rank count beyond the cores is reported but
+    left out of the fit (its time here is made ten times worse)."""
+    from shapegrowth.commands.bench_scaling import amdahl, scaling_table, serial_fraction
+
+    assert serial_fraction([1, 2, 4], [10.0, 10 * (0.2 + 0.8 / 2), 10 * (0.2 + 0.8 / 4)]) \
+        == pytest.approx(0.2, rel=1e-12)
+    assert amdahl(0.2, 16) == pytest.approx(1 / (0.2 + 0.8 / 16))
+    fractions = {"forward_s": 0.3, "hausdorff_s": 0.05, "adjoint_s": 0.5}
+
+    def case(p: int, worse: float = 1.0) -> dict:
+        c = {k: worse * 2.0 * (f + (1 - f) / p) for k, f in fractions.items()}
+        c.update({"sensitivities_s": 0.0, "filter_backward_s": 0.0, "dofs": 100,
+                  "newton_iterations": 4.0})
+        c["iteration_s"] = c["forward_s"] + c["hausdorff_s"] + c["adjoint_s"]
+        return c
+
+    table = scaling_table({1: case(1), 2: case(2), 4: case(4, worse=10.0)}, ncores=2)
+    assert table["fitted_on"] == [1, 2]
+    assert [r["oversubscribed"] for r in table["rows"]] == [False, False, True]
+    assert table["amdahl"]["forward"]["serial_fraction"] == pytest.approx(0.3, rel=1e-9)
+    assert table["amdahl"]["hausdorff"]["serial_fraction"] == pytest.approx(0.05, rel=1e-9)
+    assert table["amdahl"]["gradient"]["speedup_64"] == pytest.approx(amdahl(0.5, 64))
+    assert table["rows"][1]["speedup_forward"] == pytest.approx(1 / (0.3 + 0.7 / 2))

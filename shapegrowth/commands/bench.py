@@ -155,7 +155,7 @@ def _mpirun(ranks: int) -> list[str]:
     return [launcher, "-n", str(ranks), "--oversubscribe"]
 
 
-def _run_case_process(config: Path, overrides: list[str], size: float, out: Path,
+def run_case_process(config: Path, overrides: list[str], size: float, out: Path,
                       ranks: int, one_thread: bool = False) -> dict[str, Any]:
     """Runs one case in a fresh process (under mpirun when ranks > 1) and reads its json.
     ``one_thread``: one BLAS and one numba thread (what each MPI rank gets)."""
@@ -188,7 +188,7 @@ def run_bench(config: Path, overrides: list[str], out: Path, sizes: list[float],
     cases = []
     for size in sizes:
         log.info("bench: mesh size %g on 1 rank ...", size)
-        case = _run_case_process(config, overrides, size, out / f"case-{size:g}", 1)
+        case = run_case_process(config, overrides, size, out / f"case-{size:g}", 1)
         log.info("  %d DOFs, %d points: iteration %.3g s (forward %.3g s, %.1f Newton), "
                  "adjoint %.3g s, rho_H %.3g s", case["dofs"], case["points"],
                  case["iteration_s"], case["forward_s"], case["newton_iterations"],
@@ -209,12 +209,12 @@ def run_bench(config: Path, overrides: list[str], out: Path, sizes: list[float],
     }
     if ranks > 1:
         log.info("bench: mesh size %g on %d ranks ...", largest["mesh_size"], ranks)
-        parallel = _run_case_process(config, overrides, largest["mesh_size"],
+        parallel = run_case_process(config, overrides, largest["mesh_size"],
                                      out / f"case-{largest['mesh_size']:g}-np{ranks}", ranks)
         # The serial run already uses every core through threads (OpenBLAS in MUMPS,
         # numba in rho_H); against one thread the speedup is that of the ranks alone.
         log.info("bench: mesh size %g on 1 rank, one thread ...", largest["mesh_size"])
-        single = _run_case_process(config, overrides, largest["mesh_size"],
+        single = run_case_process(config, overrides, largest["mesh_size"],
                                    out / f"case-{largest['mesh_size']:g}-1thread", 1,
                                    one_thread=True)
         result["mpi"].update({"dofs": parallel["dofs"], "iteration_s": parallel["iteration_s"],
@@ -225,5 +225,9 @@ def run_bench(config: Path, overrides: list[str], out: Path, sizes: list[float],
                                   single["iteration_s"] / parallel["iteration_s"],
                               "forward_speedup": largest["forward_s"] / parallel["forward_s"],
                               "case": parallel, "one_thread_case": single})
-    io.write_json(out / "bench.json", result)
+    previous = out / "bench.json"  # bench --runs and --scaling write their own keys
+    if previous.is_file():
+        kept = io.read_json(previous)
+        result.update({k: kept[k] for k in ("runs", "scaling") if k in kept})
+    io.write_json(previous, result)
     return result

@@ -90,6 +90,10 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--runs", nargs="?", const="all", default=None, metavar="NAME,...",
                        help="time to a verified shape error on whole runs (bench.json "
                             "`runs`; all of them, or those named); --set applies to each run")
+    bench.add_argument("--scaling", type=_ranks, default=None, metavar="P1,P2,...",
+                       help="strong scaling of the largest case over these rank counts, "
+                            "one thread per rank, with Amdahl's law fitted (bench.json "
+                            "`scaling`), e.g. 1,2,4")
     bench.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
     return parser
 
@@ -103,6 +107,17 @@ def _sizes(text: str) -> list[float]:
     if not sizes or min(sizes) <= 0:
         raise argparse.ArgumentTypeError(f"--sizes: positive mesh sizes, got {text!r}")
     return sizes
+
+
+def _ranks(text: str) -> list[int]:
+    try:
+        ranks = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--scaling: rank counts separated by commas, got {text!r}") from None
+    if not ranks or min(ranks) < 1:
+        raise argparse.ArgumentTypeError(f"--scaling: rank counts >= 1, got {text!r}")
+    return ranks
 
 
 def _validate(cfg, args) -> int:
@@ -191,6 +206,8 @@ def _bench(cfg, args) -> int:
     if args.case:  # one case in this process (launched by the harness below)
         io.write_json(out / "case.json", bench.measure_case(cfg, args.steps))
         return EXIT_OK
+    if args.scaling is not None:
+        return _bench_scaling(args, out)
     result = bench.run_bench(Path(args.config), args.overrides, out,
                              args.sizes or list(bench.DEFAULT_SIZES), args.ranks)
     r = result["ratios"]
@@ -204,6 +221,21 @@ def _bench(cfg, args) -> int:
         log.info("mpirun -n %d speedup %.2f at %d DOFs (%.2f over one thread on one rank)",
                  mpi["ranks"], mpi["speedup"], mpi["dofs"], mpi["speedup_over_one_thread"])
     log.info("wrote %s", out / "bench.json")
+    return EXIT_OK
+
+
+def _bench_scaling(args, out: Path) -> int:
+    from ..io import files as io
+    from . import bench, bench_scaling
+
+    size = min(args.sizes or bench.DEFAULT_SIZES)
+    table = bench_scaling.run_scaling(bench.run_case_process, Path(args.config),
+                                      args.overrides, out, size, args.scaling)
+    path = out / "bench.json"
+    result = io.read_json(path) if path.is_file() else {}
+    result["scaling"] = table
+    io.write_json(path, result)
+    log.info("wrote %s", path)
     return EXIT_OK
 
 
