@@ -168,3 +168,13 @@ def test_verify_every_writes_the_verified_error_along_the_run(shared_tmp):
     # resumed after the end: every iteration is replayed, nothing is checked again
     assert run_cli("run", ARC, "--out", out, "-q", "--resume", *sets) == 0
     assert len(read_checks(out / "verified.csv")) == 2
+
+
+@pytest.mark.parametrize("degree, measured", [(1, 2), (2, 2), (3, 3)])
+def test_the_verification_measures_with_clouds_of_degree_two_at_least(degree, measured):
+    """A run may optimise on cheaper clouds (quadrature degree 1); its verification measures
+    with degree 2 or the run's own where that is higher, so verified numbers compare."""
+    cfg = sg.load_config(SQUARE, [f"objective.hausdorff.quadrature_degree={degree}"])
+    fine = refined_config(cfg, 1)
+    assert fine.objective.hausdorff.quadrature_degree == measured
+    assert fine.mesh.refine == cfg.mesh.refine + 1

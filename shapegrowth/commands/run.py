@@ -25,7 +25,7 @@ from ..io.along import VerifyEvery
 from ..io.checkpoint import CheckpointFile
 from ..io.plotting import write_frame_png, write_shape_png
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
-from ..optim.callbacks import FromRestEvery, ProgressLog, RetryFromRest
+from ..optim.callbacks import FromRestEvery, ProgressLog, ProgressTolerance, RetryFromRest
 from ..optim.driver import Driver, DriverResult, DriverSettings, Record
 from ..optim.levels import level_config
 from ..optim.lift import check_liftable, lift, lift_growth, verification_model
@@ -115,6 +115,9 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         callbacks = [ProgressLog(), CheckpointFile(path, rf, cfg.output.checkpoint_every,
                                                    resume and (k == 0 or path.is_file()), timer),
                      RetryFromRest(rf), FromRestEvery(rf, cfg.optimizer.from_rest_every)]
+        if cfg.solver.rtol_far is not None:
+            callbacks.append(ProgressTolerance(rf, cfg.solver.rtol, cfg.solver.rtol_far,
+                                               cfg.optimizer.ftol_rel))
         along = None
         if cfg.verify.every:
             along = VerifyEvery(model, cfg.verify.refine, cfg.verify.every,

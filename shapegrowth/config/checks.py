@@ -190,6 +190,13 @@ def _check_levels(cfg: Config, errors: list[str]) -> None:
                           "level of optimizer.levels")
         elif any(n < 1 for n in opt.level_iterations):
             errors.append("optimizer.level_iterations: each level needs at least 1 iteration")
+    far = cfg.solver.rtol_far
+    if far is not None and far < cfg.solver.rtol:
+        errors.append(f"solver.rtol_far: {far:g} is tighter than solver.rtol "
+                      f"({cfg.solver.rtol:g}); give a looser tolerance, or null")
+    if far is not None and opt.ftol_rel <= 0:
+        errors.append("solver.rtol_far: scales with optimizer.ftol_rel, which is 0; "
+                      "set optimizer.ftol_rel > 0 or solver.rtol_far: null")
     if 1 < len(levels) > opt.max_iterations:
         errors.append(f"optimizer.max_iterations: {opt.max_iterations} cannot be shared by "
                       f"{len(levels)} levels (one iteration each at least); raise it")

@@ -261,6 +261,10 @@ class SolverConfig:
         "an optimiser's step starts from this many chord steps at most on the last "
         "factored tangent (the first-order predictor -K^-1 dR/dC_g dC_g and its "
         "corrections; 0: from the last equilibrium)", 8, ge=0)
+    rtol_far: float | None = option(
+        "loose far from the optimum, tight near it: an optimiser's warm state solve stops at "
+        "rtol x (J's relative change over the last two evaluations) / optimizer.ftol_rel, "
+        "between rtol and this (null: always rtol)", None, gt=0, lt=1)
     adjoint_reuse: bool = option(
         "solve the adjoint with the last Newton step's factorization, refined against the exact "
         "tangent (false: assemble and factor the tangent anew)", True)

@@ -1,6 +1,7 @@
 """The driver's stock callbacks: the progress log, the retry of a failed state from rest,
-and the physical branch (``optimizer.from_rest_every``).  The checkpoint and exact resume
-are io's (io/checkpoint.py)."""
+the physical branch (``optimizer.from_rest_every``) and the state's tolerance from the
+optimiser's progress (``solver.rtol_far``).  The checkpoint and exact resume are io's
+(io/checkpoint.py)."""
 
 from __future__ import annotations
 
@@ -51,8 +52,41 @@ class FromRestEvery(Callback):
             self.problem.restart_from_rest()
 
 
+class ProgressTolerance(Callback):
+    """Newton's tolerance for the next warm state solve, loose far from the optimum and tight
+    near it: ``rtol * progress / ftol_rel`` within [rtol, rtol_far], where progress is the
+    change of J between the last two evaluations relative to the scale of the optimiser's
+    stopping test (|J|, or rho_H(T, T) where that is larger: the debiased J tends to 0).
+    A warm solve's relative tolerance is taken of the residual the design step made, so the
+    error it leaves in J is about the tolerance times the step's own change of J; where J
+    still changes by 1e-3 per step, 1e-6 of that is far below what the optimiser can see,
+    and where the change falls to the stopping test's ftol_rel the configured rtol holds.
+    The tolerance comes from the driver's history only (replayed steps included), so a
+    resumed run solves with the tolerances of the uninterrupted one."""
+
+    def __init__(self, problem: Tolerant, rtol: float, rtol_far: float, ftol_rel: float):
+        self.problem = problem
+        self.rtol, self.rtol_far, self.ftol_rel = rtol, rtol_far, ftol_rel
+        self._last: float | None = None
+
+    def tolerance(self, previous: float, current: float, scale: float = 0.0) -> float:
+        size = max(abs(current), abs(previous), scale, 1e-300)
+        progress = abs(current - previous) / size
+        return float(np.clip(self.rtol * progress / self.ftol_rel, self.rtol, self.rtol_far))
+
+    def evaluated(self, step: Step) -> None:
+        if self._last is not None:
+            scale = self.problem.stopping_scale()
+            self.problem.set_warm_rtol(self.tolerance(self._last, step.objective, scale))
+        self._last = step.objective
+
+
 class Restartable(DesignProblem, Protocol):
     def restart_from_rest(self, step_scale: float = 1.0) -> None: ...
+
+
+class Tolerant(DesignProblem, Protocol):
+    def set_warm_rtol(self, rtol: float | None) -> None: ...
 
 
 def line(r: Record) -> str:

@@ -165,6 +165,11 @@ class ReducedFunctional:
         self.model.state.carry(source.model.state)
         self._forget()
 
+    def set_warm_rtol(self, rtol: float | None) -> None:
+        """Newton's relative tolerance for the state solves of the next designs (warm steps
+        from the last equilibrium; None: solver.rtol).  Solves from rest keep solver.rtol."""
+        self.model.state.warm_rtol = rtol
+
     def stopping_scale(self) -> float:
         """The scale of an absolute stopping test on J (0: none; see Objective)."""
         return self.objective.stopping_scale()

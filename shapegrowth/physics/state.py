@@ -131,6 +131,9 @@ class StateProblem:
         self._chord_du = self.A.createVecRight()
         self.snes = self._create_snes()
         self.jacobian_assemblies = 0  # the SNES's linear solver holds factors once this is > 0
+        # Newton's relative tolerance for the next warm step (an optimiser's step from the
+        # last equilibrium); None: solver.rtol.  Solves from rest always use solver.rtol.
+        self.warm_rtol: float | None = None
         self._at_rest = True
         self._equilibrium: list[np.ndarray] | None = None  # growth values of the last equilibrium
         self._first_step_scale = 1.0  # a retry from rest may ask for smaller first steps
@@ -244,7 +247,7 @@ class StateProblem:
         ksp = self.snes.getKSP()
         self.assemble_residual(x, b)
         r0 = previous = b.norm()
-        target = max(self.cfg.solver.rtol * r0, self.snes.getTolerances()[1])
+        target = max(self._warm_rtol() * r0, self.snes.getTolerances()[1])
         kept = 0
         with self.options.pushed():
             for _ in range(self.cfg.solver.chord_steps):
@@ -268,21 +271,28 @@ class StateProblem:
         self.u.x.scatter_forward()
         return r0, kept
 
-    def _newton(self, reference: float | None = None) -> tuple[bool, int, str]:
+    def _warm_rtol(self) -> float:
+        return self.cfg.solver.rtol if self.warm_rtol is None else self.warm_rtol
+
+    def _newton(self, reference: float | None = None,
+                rtol: float | None = None) -> tuple[bool, int, str]:
         """Newton's method from ``self.u``; ``reference``: the residual norm its relative
-        tolerance is taken of (default: the residual at the start)."""
+        tolerance is taken of (default: the residual at the start); ``rtol``: that
+        tolerance (default solver.rtol)."""
         x = self.u.vector
         tolerances = self.snes.getTolerances()  # rtol, atol, stol, max_it
+        rtol = tolerances[0] if rtol is None else rtol
         if reference is not None:  # the same stopping residual as without the predictor
-            self.snes.setTolerances(rtol=0.0, atol=max(tolerances[0] * reference,
-                                                       tolerances[1]))
+            self.snes.setTolerances(rtol=0.0, atol=max(rtol * reference, tolerances[1]))
+        elif rtol != tolerances[0]:
+            self.snes.setTolerances(rtol=rtol)
         try:
             with self.options.pushed():
                 self.snes.solve(None, x)
         except PETSc.Error as err:  # e.g. a factorisation that broke down
             return False, self.snes.getIterationNumber(), f"PETSc error {err.ierr}"
         finally:
-            if reference is not None:
+            if reference is not None or rtol != tolerances[0]:
                 self.snes.setTolerances(rtol=tolerances[0], atol=tolerances[1])
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
@@ -360,7 +370,9 @@ class StateProblem:
             trial = t + dt
             self.applied.assign(self.applied.blend(start, end, trial))
             self.load_scale.value = scale0 + trial * (1.0 - scale0)
-            reference = None
+            reference, rtol = None, None
+            if scale0 == 1.0 and t == 0.0 and not carried:  # a warm step
+                rtol = self._warm_rtol()
             if previous is not None:  # secant predictor along the equilibrium path
                 t_prev, u_prev = previous
                 self.u.x.array[:] = saved + (trial - t) / (t - t_prev) * (saved - u_prev)
@@ -368,7 +380,7 @@ class StateProblem:
                     self.jacobian_assemblies > 0:  # a warm step: the tangent predictor
                 reference, chords = self._chord()
                 report.chord_steps += chords
-            ok, its, reason = self._newton(reference)
+            ok, its, reason = self._newton(reference, rtol)
             report.newton_iterations += its
             if ok:
                 previous = (t, saved.copy())
