@@ -169,6 +169,33 @@ def test_the_driver_finds_a_known_minimum_and_calls_back():
     assert min(objectives) == pytest.approx(sum((result.best - c) ** 2), abs=1e-12)
 
 
+def test_the_optimisers_time_is_nlopts_own():
+    """optimizer_seconds is NLopt's own work: the problem's calls outside NLopt's loop (the
+    stopping test's scale, a new alpha: pair sums on a real problem) count with J and dJ.
+    Here each such call and each evaluation sleeps 20 ms; NLopt's L-BFGS on 4 unknowns
+    takes microseconds."""
+    import time
+
+    class Slow(Quadratic):
+        def evaluate(self, m: np.ndarray, gradient: bool = True) -> Evaluation:
+            time.sleep(0.02)
+            return super().evaluate(m, gradient)
+
+        def stopping_scale(self) -> float:
+            time.sleep(0.02)
+            return 1.0
+
+        def set_alpha(self, alpha: float) -> None:
+            time.sleep(0.02)
+            super().set_alpha(alpha)
+
+    problem = Slow(comm=MPI.COMM_SELF)
+    settings = sg.DriverSettings("slow", "lbfgs", 10, (1.0, 2.0), ftol_rel=1e-12)
+    result = sg.Driver(problem, settings, []).run()
+    assert len(result.history) >= 3 and problem.alphas == [2.0]
+    assert result.optimizer_seconds < 0.015  # not one of the 20 ms sleeps
+
+
 def test_an_answering_callback_replaces_the_evaluation():
     """A callback that answers (as a resumed run's record does) is used instead of a solve."""
 

@@ -171,8 +171,10 @@ class ReducedFunctional:
         self.model.state.warm_rtol = rtol
 
     def stopping_scale(self) -> float:
-        """The scale of an absolute stopping test on J (0: none; see Objective)."""
-        return self.objective.stopping_scale()
+        """The scale of an absolute stopping test on J (0: none; see Objective): rho_H(T, T)
+        at the current alpha, a pair sum (timed as rho_H's)."""
+        with self.timer("hausdorff"):
+            return self.objective.stopping_scale()
 
     def _forget(self) -> None:
         self._key, self._last, self._report = None, None, None
