@@ -134,6 +134,34 @@ def test_eigenvalue_derivative_is_v_T_v(pw):
         assert fd == pytest.approx(V[:, i] @ T @ V[:, i], rel=1e-7)
 
 
+def test_angle_derivative_carries_the_eigenvalues():
+    """d(P : grad p)/dtheta_i = sum_j lambda_j dv_j/dtheta_i . (T + T^T) v_j, by central
+    differences through (5.5): C_g = sum_j lambda_j v_j (x) v_j, so each term carries its
+    lambda_j.  The paper's printed sensitivity (Sect. 5.1.3) omits lambda_j; it is right
+    only where every lambda_j = 1, and here it is not."""
+    F, gp = random_F(), RNG.standard_normal((3, 3))
+    lam = np.array([0.6, 1.7, 2.9])
+    theta = RNG.uniform(0.3, 1.2, 3)
+
+    def metric(t):
+        V = cf.rodrigues_vectors(*t)  # rows v1, v2, v3
+        return sum(lam[j] * np.outer(V[j], V[j]) for j in range(3))
+
+    V = cf.rodrigues_vectors(*theta)
+    T = cf.growth_sensitivity(F, metric(theta), gp, **closed_args())
+    for i in range(3):
+        h = 1e-6
+        up, down = theta.copy(), theta.copy()
+        up[i] += h
+        down[i] -= h
+        fd = (np.sum(cf.stress(F, metric(up), **closed_args()) * gp)
+              - np.sum(cf.stress(F, metric(down), **closed_args()) * gp)) / (2 * h)
+        dV = (cf.rodrigues_vectors(*up) - cf.rodrigues_vectors(*down)) / (2 * h)
+        terms = [dV[j] @ (T + T.T) @ V[j] for j in range(3)]
+        assert fd == pytest.approx(sum(lam[j] * terms[j] for j in range(3)), rel=1e-6)
+        assert fd != pytest.approx(sum(terms), rel=1e-2)  # the printed form
+
+
 @pytest.mark.parametrize("trial", range(3))
 def test_stress_free_when_FtF_equals_Cg(pw, trial):
     Cg = random_Cg()
