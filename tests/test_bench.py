@@ -108,3 +108,18 @@ def test_amdahls_serial_fraction_is_recovered_and_oversubscribed_runs_are_not_fi
     assert table["amdahl"]["hausdorff"]["serial_fraction"] == pytest.approx(0.05, rel=1e-9)
     assert table["amdahl"]["gradient"]["speedup_64"] == pytest.approx(amdahl(0.5, 64))
     assert table["rows"][1]["speedup_forward"] == pytest.approx(1 / (0.3 + 0.7 / 2))
+
+
+def test_a_bench_case_without_equilibrium_is_one_line(tmp_path):
+    """A setting under which the bench's growth finds no equilibrium (here: one Newton
+    iteration per step, no step cutting; measured the same with `solver.linear: gamg`, whose
+    linear solve fails on the thin beam) ends the bench with one line naming the solve and
+    the keys to look at, not a traceback."""
+    done = run_subprocess(["bench", CONFIGS / "tiny" / "beam_wave.yaml", "--sizes", "0.2",
+                           "--steps", "1", "--ranks", "1", "--out", tmp_path, "-q",
+                           "--set", "solver.max_newton_iterations=1",
+                           "--set", "solver.continuation.min_step=0.1"], timeout=600)
+    assert done.returncode == 2
+    err = done.stderr.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: bench: no equilibrium"), err
+    assert "solver." in err[0]

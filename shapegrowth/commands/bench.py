@@ -33,7 +33,7 @@ from petsc4py import PETSc
 from .. import compat
 from ..config import Config
 from ..io import files as io
-from ..optim.problem import ReducedFunctional
+from ..optim.problem import ReducedFunctional, StateSolveError
 from ..optim.verification import smooth_direction
 from ..physics.boundary import body_box
 from ..physics.model import ForwardModel
@@ -84,6 +84,14 @@ def _reference_newton_seconds(model: ForwardModel, iterations: int = 3) -> float
     return seconds
 
 
+def _evaluate(rf: ReducedFunctional, m: np.ndarray, cfg: Config):
+    try:
+        return rf.evaluate(m)
+    except StateSolveError as err:
+        raise InputError(f"bench: no equilibrium for the bench's growth at mesh size "
+                         f"{cfg.mesh.size:g} ({err}); check the solver.* settings") from None
+
+
 def measure_case(cfg: Config, steps: int = 3, step_size: float = 0.01) -> dict[str, Any]:
     """One case, in this process (all ranks)."""
     timer = Timer()
@@ -94,7 +102,7 @@ def measure_case(cfg: Config, steps: int = 3, step_size: float = 0.01) -> dict[s
     lo, hi = rf.bounds()
 
     tic = time.perf_counter()
-    first = rf.evaluate(m)
+    first = _evaluate(rf, m, cfg)
     cold_s = time.perf_counter() - tic
     cold_forward = first.report.seconds
     cold_newton = first.report.newton_iterations
@@ -107,7 +115,7 @@ def measure_case(cfg: Config, steps: int = 3, step_size: float = 0.01) -> dict[s
         m = np.clip(m * (1.0 + step_size * direction), lo, hi)
         before, details = dict(timer.totals), dict(timer.details)
         tic = time.perf_counter()
-        ev = rf.evaluate(m)
+        ev = _evaluate(rf, m, cfg)
         elapsed = time.perf_counter() - tic
         spent = {key: timer.totals[key] - before[key] for key in before}
         detail = {key: timer.details.get(key, 0.0) - details.get(key, 0.0)
@@ -173,6 +181,9 @@ def run_case_process(config: Path, overrides: list[str], size: float, out: Path,
                     "OPENBLAS_NUM_THREADS": "1"})
     done = subprocess.run(cmd, env=env, capture_output=True, text=True)
     if done.returncode != 0:
+        said = [line for line in done.stderr.splitlines() if line.startswith("error: ")]
+        if said:  # the case's own one-line error
+            raise InputError(said[-1].removeprefix("error: "))
         raise RuntimeError(f"bench case h = {size} on {ranks} rank(s) failed:\n"
                            f"{done.stderr[-3000:]}")
     return json.loads((out / "case.json").read_text())
