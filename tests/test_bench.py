@@ -123,3 +123,11 @@ def test_a_bench_case_without_equilibrium_is_one_line(tmp_path):
     err = done.stderr.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: bench: no equilibrium"), err
     assert "solver." in err[0]
+
+
+@pytest.mark.parametrize("flag, value", [("--sizes", "0.1,x"), ("--sizes", "-1"),
+                                         ("--scaling", "0,2"), ("--scaling", "two")])
+def test_bad_sizes_and_rank_counts_name_their_flag(flag, value, tmp_path):
+    done = run_subprocess(["bench", flag, value, "--out", tmp_path], timeout=60)
+    assert done.returncode == 2
+    assert f"argument {flag}: " in done.stderr.strip().splitlines()[-1]

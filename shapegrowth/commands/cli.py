@@ -98,26 +98,24 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _sizes(text: str) -> list[float]:
-    try:
-        sizes = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"--sizes: numbers separated by commas, got {text!r}") from None
-    if not sizes or min(sizes) <= 0:
-        raise argparse.ArgumentTypeError(f"--sizes: positive mesh sizes, got {text!r}")
-    return sizes
+def _numbers(kind: type, what: str, valid):
+    """An argparse type: a comma-separated list of ``kind`` values, each ``valid``."""
+
+    def parse(text: str) -> list:
+        try:
+            values = [kind(v) for v in text.split(",") if v.strip()]
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{what} separated by commas, got {text!r}") from None
+        if not values or not all(valid(v) for v in values):
+            raise argparse.ArgumentTypeError(f"{what}, got {text!r}")
+        return values
+
+    return parse
 
 
-def _ranks(text: str) -> list[int]:
-    try:
-        ranks = [int(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"--scaling: rank counts separated by commas, got {text!r}") from None
-    if not ranks or min(ranks) < 1:
-        raise argparse.ArgumentTypeError(f"--scaling: rank counts >= 1, got {text!r}")
-    return ranks
+_sizes = _numbers(float, "positive mesh sizes", lambda v: v > 0)
+_ranks = _numbers(int, "rank counts >= 1", lambda v: v >= 1)
 
 
 def _validate(cfg, args) -> int:
