@@ -236,9 +236,17 @@ def run_bench(config: Path, overrides: list[str], out: Path, sizes: list[float],
                                   single["iteration_s"] / parallel["iteration_s"],
                               "forward_speedup": largest["forward_s"] / parallel["forward_s"],
                               "case": parallel, "one_thread_case": single})
-    previous = out / "bench.json"  # bench --runs and --scaling write their own keys
-    if previous.is_file():
-        kept = io.read_json(previous)
-        result.update({k: kept[k] for k in ("runs", "scaling") if k in kept})
-    io.write_json(previous, result)
+    update_bench_json(out, result, keep=("runs", "scaling"))
     return result
+
+
+def update_bench_json(out: Path, entries: dict[str, Any],
+                      keep: tuple[str, ...] | None = None) -> Path:
+    """Write ``entries`` into ``out``/bench.json over what it holds: every other key kept
+    (``keep`` None) or only those named (the per-iteration bench rewrites its own keys and
+    keeps those of ``--runs`` and ``--scaling``)."""
+    path = out / "bench.json"
+    previous = io.read_json(path) if path.is_file() else {}
+    kept = {k: v for k, v in previous.items() if keep is None or k in keep}
+    io.write_json(path, {**kept, **entries})
+    return path

@@ -58,19 +58,17 @@ def scaling_table(cases: dict[int, dict[str, Any]], ncores: int) -> dict[str, An
     """bench.json's ``scaling``: per rank count the parts' seconds and speedups, and per part
     the fitted serial fraction and the speedup it projects."""
     ranks = sorted(cases)
-    base = _parts(cases[ranks[0]])
-    rows = []
-    for p in ranks:
-        parts = _parts(cases[p])
-        rows.append({"ranks": p, "oversubscribed": p > ncores, "dofs": cases[p]["dofs"],
-                     "newton_iterations": cases[p]["newton_iterations"],
-                     "peak_memory_mb": cases[p].get("peak_memory_mb"), **parts,
-                     **{f"speedup_{k[:-2]}": base[k] / parts[k] for k in PARTS}})
+    parts = {p: _parts(cases[p]) for p in ranks}
+    base = parts[ranks[0]]
+    rows = [{"ranks": p, "oversubscribed": p > ncores, "dofs": cases[p]["dofs"],
+             "newton_iterations": cases[p]["newton_iterations"],
+             "peak_memory_mb": cases[p].get("peak_memory_mb"), **parts[p],
+             **{f"speedup_{k[:-2]}": base[k] / parts[p][k] for k in PARTS}} for p in ranks]
     fitted = [p for p in ranks if p <= ncores]
     fits: dict[str, Any] = {}
     if len(fitted) >= 2 and fitted[0] == 1:
         for k in PARTS:
-            f = serial_fraction(fitted, [_parts(cases[p])[k] for p in fitted])
+            f = serial_fraction(fitted, [parts[p][k] for p in fitted])
             fits[k[:-2]] = {"serial_fraction": f,
                             **{f"speedup_{n}": amdahl(f, n) for n in PROJECTED}}
     return {"cores": ncores, "fitted_on": fitted, "rows": rows, "amdahl": fits}

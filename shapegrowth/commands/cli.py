@@ -223,33 +223,23 @@ def _bench(cfg, args) -> int:
 
 
 def _bench_scaling(args, out: Path) -> int:
-    from ..io import files as io
     from . import bench, bench_scaling
 
     size = min(args.sizes or bench.DEFAULT_SIZES)
     table = bench_scaling.run_scaling(bench.run_case_process, Path(args.config),
                                       args.overrides, out, size, args.scaling)
-    path = out / "bench.json"
-    result = io.read_json(path) if path.is_file() else {}
-    result["scaling"] = table
-    io.write_json(path, result)
-    log.info("wrote %s", path)
+    log.info("wrote %s", bench.update_bench_json(out, {"scaling": table}))
     return EXIT_OK
 
 
 def _bench_runs(args, out: Path) -> int:
-    from ..io import files as io
-    from . import bench_runs
+    from . import bench, bench_runs
 
     only = [] if args.runs == "all" else [n for n in args.runs.split(",") if n]
     # the per-iteration bench's default growth belongs to its own config, not to the runs
     overrides = args.runs_overrides
     timings = bench_runs.run_runs(out, args.ranks, only, overrides)
-    path = out / "bench.json"
-    result = io.read_json(path) if path.is_file() else {}
-    result["runs"] = bench_runs.as_json(timings)
-    io.write_json(path, result)
-    log.info("wrote %s", path)
+    log.info("wrote %s", bench.update_bench_json(out, {"runs": bench_runs.as_json(timings)}))
     return EXIT_OK
 
 

@@ -370,13 +370,13 @@ class StateProblem:
             trial = t + dt
             self.applied.assign(self.applied.blend(start, end, trial))
             self.load_scale.value = scale0 + trial * (1.0 - scale0)
-            reference, rtol = None, None
-            if scale0 == 1.0 and t == 0.0 and not carried:  # a warm step
-                rtol = self._warm_rtol()
+            first_at_full = scale0 == 1.0 and t == 0.0  # from an equilibrium or a carry
+            reference = None
+            rtol = self._warm_rtol() if first_at_full and not carried else None  # warm
             if previous is not None:  # secant predictor along the equilibrium path
                 t_prev, u_prev = previous
                 self.u.x.array[:] = saved + (trial - t) / (t - t_prev) * (saved - u_prev)
-            elif scale0 == 1.0 and t == 0.0 and self.cfg.solver.chord_steps and \
+            elif first_at_full and self.cfg.solver.chord_steps and \
                     self.jacobian_assemblies > 0:  # a warm step: the tangent predictor
                 reference, chords = self._chord()
                 report.chord_steps += chords
