@@ -1,8 +1,12 @@
 """The dolfinx-version-specific calls, gathered so a newer dolfinx is a local change.
 
-Written against dolfinx 0.5.2 (Debian bookworm).  Everything else in the
-package goes through these helpers for meshes from gmsh, function spaces,
-point evaluation and XDMF output.
+Two releases are served and tested: dolfinx 0.5.2 (Debian 12, ufl 2022.2, PETSc 3.18)
+and dolfinx 0.9.0 (Debian 13, ufl 2024.2, basix 0.9, PETSc 3.22).  Every difference
+between them is a branch on ``AT_LEAST_0_9`` in this module, each with a comment naming
+the release that changed the call; the rest of the package calls these helpers for
+meshes from gmsh, function spaces, PETSc vectors of functions, boundary conditions,
+expression evaluation, point evaluation and XDMF output.  The releases between (0.6-0.8)
+are not tested.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import ufl
 from mpi4py import MPI
 
 DOLFINX_VERSION = dolfinx.__version__
+AT_LEAST_0_9 = tuple(int(p) for p in DOLFINX_VERSION.split(".")[:2]) >= (0, 9)
 
 
 def read_gmsh(path: Path, comm: MPI.Comm, gdim: int):
@@ -37,11 +42,17 @@ def read_gmsh(path: Path, comm: MPI.Comm, gdim: int):
         gmsh.initialize()
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.merge(str(path))
+    partitioner = dolfinx.cpp.mesh.create_cell_partitioner(_ordered_partition)
+    if AT_LEAST_0_9:  # 0.6 added model_to_mesh(..., partitioner=)
+        try:
+            return gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=gdim,
+                                        partitioner=partitioner)
+        finally:
+            if comm.rank == 0:
+                gmsh.finalize()
     # model_to_mesh takes no partitioner in 0.5.2: hand it a create_mesh that uses ours
     default_create_mesh = gmshio.create_mesh
-    gmshio.create_mesh = functools.partial(
-        default_create_mesh,
-        partitioner=dolfinx.cpp.mesh.create_cell_partitioner(_ordered_partition))
+    gmshio.create_mesh = functools.partial(default_create_mesh, partitioner=partitioner)
     try:
         return gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=gdim)
     finally:
@@ -99,11 +110,95 @@ def reference_quadrature(mesh, degree: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def vector_space(mesh, degree: int):
+    """Continuous Lagrange vectors of the mesh's geometric dimension."""
+    if AT_LEAST_0_9:  # 0.7 replaced VectorFunctionSpace by functionspace with a shape
+        return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (mesh.geometry.dim,)))
     return dolfinx.fem.VectorFunctionSpace(mesh, ("CG", degree))
 
 
-def scalar_space(mesh, degree: int):
-    return dolfinx.fem.FunctionSpace(mesh, ("CG", degree))
+def scalar_space(mesh, degree: int, family: str = "Lagrange"):
+    """Scalar ``family`` ("Lagrange" or "DG") of ``degree``."""
+    if AT_LEAST_0_9:  # 0.7: functionspace (FunctionSpace is the class, not a factory)
+        return dolfinx.fem.functionspace(mesh, (family, degree))
+    return dolfinx.fem.FunctionSpace(mesh, ("CG" if family == "Lagrange" else family, degree))
+
+
+def quadrature_space(mesh, degree: int, vector: bool = False):
+    """The quadrature space of ``degree`` (basix's default scheme), scalar or a vector of
+    the geometric dimension."""
+    if AT_LEAST_0_9:  # 0.7 moved elements from ufl to basix.ufl
+        import basix.ufl
+        shape = (mesh.geometry.dim,) if vector else ()
+        element = basix.ufl.quadrature_element(mesh.basix_cell(), value_shape=shape,
+                                               scheme="default", degree=degree)
+        return dolfinx.fem.functionspace(mesh, element)
+    family = ufl.VectorElement if vector else ufl.FiniteElement
+    return dolfinx.fem.FunctionSpace(
+        mesh, family("Quadrature", mesh.ufl_cell(), degree, quad_scheme="default"))
+
+
+def create_mesh(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray, cell: str):
+    """A degree-1 simplex mesh of ``cell`` ("triangle"/"tetrahedron") from arrays."""
+    gdim = x.shape[1]
+    if AT_LEAST_0_9:  # 0.7: the coordinate element is a basix.ufl element
+        import basix.ufl
+        domain = ufl.Mesh(basix.ufl.element("Lagrange", cell, 1, shape=(gdim,)))
+    else:
+        domain = ufl.Mesh(ufl.VectorElement("Lagrange", cell, 1))
+    return dolfinx.mesh.create_mesh(comm, cells, x, domain)
+
+
+def geometry_nodes(mesh) -> np.ndarray:
+    """Geometry node indices of the local cells, one row per cell."""
+    dofmap = mesh.geometry.dofmap
+    if AT_LEAST_0_9:  # 0.7 made the geometry dofmap a 2D array
+        return np.asarray(dofmap)
+    return dofmap.array.reshape(-1, dofmap.offsets[1] - dofmap.offsets[0])
+
+
+def petsc_vec(f: dolfinx.fem.Function):
+    """The PETSc vector that shares ``f``'s values (ghosts included)."""
+    if AT_LEAST_0_9:  # 0.8 removed Function.vector for Function.x.petsc_vec
+        return f.x.petsc_vec
+    return f.vector
+
+
+def set_bc(b, bcs, x0=None, alpha: float = 1.0) -> None:
+    """b <- alpha (g - x0) on the prescribed DOFs."""
+    if AT_LEAST_0_9:  # 0.8 renamed scale to alpha
+        dolfinx.fem.petsc.set_bc(b, bcs, x0, alpha=alpha)
+    else:
+        dolfinx.fem.petsc.set_bc(b, bcs, x0, scale=alpha)
+
+
+def apply_lifting(b, forms, bcs, x0, alpha: float = 1.0) -> None:
+    """b <- b - alpha A (g - x0) for the prescribed DOFs of each form's bcs."""
+    if AT_LEAST_0_9:  # 0.8 renamed scale to alpha
+        dolfinx.fem.petsc.apply_lifting(b, forms, bcs=bcs, x0=x0, alpha=alpha)
+    else:
+        dolfinx.fem.petsc.apply_lifting(b, forms, bcs=bcs, x0=x0, scale=alpha)
+
+
+def expression_evaluator(expr: ufl.core.expr.Expr, points: np.ndarray, mesh, cells: np.ndarray):
+    """A function returning the values of ``expr`` at the reference ``points`` of
+    ``cells`` (one row per cell), compiled once."""
+    compiled = dolfinx.fem.Expression(expr, points)
+    cells = np.asarray(cells, dtype=np.int32)
+    if AT_LEAST_0_9:  # 0.8: Expression.eval(mesh, entities)
+        return lambda: compiled.eval(mesh, cells)
+    return lambda: compiled.eval(cells)
+
+
+def evaluate_expression(expr: ufl.core.expr.Expr, points: np.ndarray, mesh,
+                        cells: np.ndarray) -> np.ndarray:
+    """The values of ``expr`` at the reference ``points`` of ``cells`` (one row per cell)."""
+    return expression_evaluator(expr, points, mesh, cells)()
+
+
+def has_domain(expr: ufl.core.expr.Expr) -> bool:
+    """Whether ``expr`` lives on a mesh (a constant expression does not)."""
+    from ufl.domain import extract_unique_domain
+    return extract_unique_domain(expr) is not None
 
 
 def interpolation_points(space) -> np.ndarray:
@@ -113,7 +208,7 @@ def interpolation_points(space) -> np.ndarray:
 
 def interpolate_expression(target: dolfinx.fem.Function, expr: ufl.core.expr.Expr) -> None:
     """target <- interpolation of a UFL expression (which may be a constant)."""
-    if expr.ufl_domain() is None:  # a constant: fem.Expression needs a mesh
+    if not has_domain(expr):  # a constant: fem.Expression needs a mesh
         values = np.array([float(c) for c in expr] if expr.ufl_shape else [float(expr)])
         target.interpolate(lambda x: np.outer(values, np.ones(x.shape[1])))
         return
@@ -140,8 +235,12 @@ def evaluate_at_points(u: dolfinx.fem.Function, points: np.ndarray) -> np.ndarra
     comm = mesh.comm
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     value_size = u.function_space.dofmap.index_map_bs
-    tree = dolfinx.geometry.BoundingBoxTree(mesh, mesh.topology.dim)
-    candidates = dolfinx.geometry.compute_collisions(tree, points)
+    if AT_LEAST_0_9:  # 0.7: bb_tree and compute_collisions_points
+        tree = dolfinx.geometry.bb_tree(mesh, mesh.topology.dim)
+        candidates = dolfinx.geometry.compute_collisions_points(tree, points)
+    else:
+        tree = dolfinx.geometry.BoundingBoxTree(mesh, mesh.topology.dim)
+        candidates = dolfinx.geometry.compute_collisions(tree, points)
     colliding = dolfinx.geometry.compute_colliding_cells(mesh, candidates, points)
     local = np.full((len(points), value_size), np.nan)
     found = [i for i in range(len(points)) if len(colliding.links(i))]

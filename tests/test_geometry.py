@@ -10,6 +10,7 @@ import pytest
 import ufl
 from mpi4py import MPI
 
+from shapegrowth import compat
 from shapegrowth.config import BOUNDARIES, from_dict
 from shapegrowth.physics.boundary import body_box
 from shapegrowth.physics.geometry import load_domain, mesh_path
@@ -97,7 +98,6 @@ def test_cache_is_keyed_by_parameters(tmp_path):
 @pytest.mark.parametrize("squash", [0.0, 1e-10])
 def test_a_mesh_with_a_flat_cell_is_refused_with_one_clear_line(squash):
     """Two tetrahedra on a shared face; the apex of the second pushed into that face."""
-    import dolfinx.mesh
 
     from shapegrowth.config import ConfigError
     from shapegrowth.physics.geometry import check_cells
@@ -106,8 +106,7 @@ def test_a_mesh_with_a_flat_cell_is_refused_with_one_clear_line(squash):
     cells = np.array([[0, 1, 2, 3], [0, 1, 2, 4]], np.int64)
     if MPI.COMM_WORLD.rank:
         x, cells = np.zeros((0, 3)), np.zeros((0, 4), np.int64)
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", "tetrahedron", 1))
-    mesh = dolfinx.mesh.create_mesh(MPI.COMM_WORLD, cells, x, domain)
+    mesh = compat.create_mesh(MPI.COMM_WORLD, cells, x, "tetrahedron")
     with pytest.raises(ConfigError, match=r"mesh.size: 1 of 2 cells are flat or collapsed"):
         check_cells(mesh)
 
@@ -115,7 +114,7 @@ def test_a_mesh_with_a_flat_cell_is_refused_with_one_clear_line(squash):
 def _cell_x1_extent(mesh) -> tuple[np.ndarray, np.ndarray]:
     """(lowest X1, X1 extent) of every owned cell."""
     n = mesh.topology.index_map(mesh.topology.dim).size_local
-    x = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, mesh.topology.dim + 1)[:n], 0]
+    x = mesh.geometry.x[compat.geometry_nodes(mesh)[:n], 0]
     return x.min(axis=1), x.max(axis=1) - x.min(axis=1)
 
 
@@ -158,7 +157,7 @@ def test_every_clamped_body_grades_towards_its_clamp(kind, shared_tmp):
     near, far, volumes = [], [], []
     for mesh in meshes:
         n = mesh.topology.index_map(3).size_local
-        x = mesh.geometry.x[mesh.geometry.dofmap.array.reshape(-1, 4)[:n]]
+        x = mesh.geometry.x[compat.geometry_nodes(mesh)[:n]]
         d = distance(x.reshape(-1, 3)).reshape(-1, 4)
         edge = d.max(axis=1) - d.min(axis=1)  # each cell's extent away from the clamp
         touching = np.abs(d).min(axis=1) < 1e-9  # a vertex on the clamp
@@ -186,7 +185,7 @@ def test_refined_mesh_is_nested_and_carries_p1_fields_exactly(shared_tmp):
     comm = meshes[0].comm
     cells = [comm.allreduce(m.topology.index_map(3).size_local, MPI.SUM) for m in meshes]
     assert cells[1] == 8 * cells[0]
-    fields = [dolfinx.fem.Function(dolfinx.fem.FunctionSpace(m, ("CG", 1))) for m in meshes]
+    fields = [dolfinx.fem.Function(compat.scalar_space(m, 1)) for m in meshes]
     fields[0].interpolate(lambda p: np.sin(7 * p[0]) * np.cos(5 * p[1]) + 3 * p[2])
     interpolate_between_meshes(fields[0], fields[1])
     squares = [comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(f * f * ufl.dx)), MPI.SUM)

@@ -97,7 +97,7 @@ def test_filter_backward_is_the_transpose_of_forward(degree, shared_tmp):
     x.x.array[:] = np.sin(x_coords[:, 0]) + x_coords[:, 1] ** 2
     fx = dolfinx.fem.Function(space)
     filt.forward(x, fx)
-    y = fx.vector.duplicate()
+    y = compat.petsc_vec(fx).duplicate()
     y.array[:] = np.cos(3 * x_coords[:n, 1]) - x_coords[:n, 0]
     fty = y.duplicate()
     filt.backward(y, fty)

@@ -33,6 +33,7 @@ import dolfinx.fem.petsc
 import ufl
 from petsc4py import PETSc
 
+from .. import compat
 from ..physics.options import SolverOptions
 from ..physics.state import StateProblem
 from ..shape.clouds import assemble
@@ -81,7 +82,7 @@ class AdjointProblem:
         st = self.state
         dJdu.copy(self.rhs)
         self.rhs.scale(-1.0)
-        dolfinx.fem.petsc.set_bc(self.rhs, st.bcs, scale=0.0)  # p = 0 where u is prescribed
+        compat.set_bc(self.rhs, st.bcs, alpha=0.0)  # p = 0 where u is prescribed
         if self.reuse and self.state.jacobian_assemblies > 0:
             try:
                 with self.state.options.pushed():  # the state's KSP, under its options
@@ -92,11 +93,11 @@ class AdjointProblem:
         self.refinements = -1
         self.A.zeroEntries()
         # dolfinx 0.5's annotations miss this (singledispatch) overload
-        dolfinx.fem.petsc.assemble_matrix(self.A, st.jacobian_form, bcs=st.bcs)  # type: ignore[misc]
+        dolfinx.fem.petsc.assemble_matrix(self.A, st.jacobian_form, bcs=st.bcs)
         self.A.assemble()
         self.ksp.setOperators(self.A)
         with self.options.pushed():
-            self.ksp.solve(self.rhs, self.p.vector)
+            self.ksp.solve(self.rhs, compat.petsc_vec(self.p))
         if self.ksp.getConvergedReason() < 0:
             raise AdjointSolveError(f"adjoint solve failed (KSP reason "
                                     f"{self.ksp.getConvergedReason()}); a direct solver "
@@ -112,7 +113,7 @@ class AdjointProblem:
         cond(K) x eps of b (1e-9 on the tiny beam, serial and on 2 ranks), as it does after
         a fresh factorisation, and the corrections then fall to ~2e-11 of p."""
         ksp = self.state.snes.getKSP()
-        p, r, dp = self.p.vector, self._residual, self._correction
+        p, r, dp = compat.petsc_vec(self.p), self._residual, self._correction
         b_norm = self.rhs.norm()
         p.zeroEntries()
         self.rhs.copy(r)
@@ -144,7 +145,7 @@ class AdjointProblem:
         dolfinx.fem.petsc.assemble_vector(r, self._action)
         r.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         r.aypx(-1.0, self.rhs)
-        dolfinx.fem.petsc.set_bc(r, self.state.bcs, scale=0.0)
+        compat.set_bc(r, self.state.bcs, alpha=0.0)
 
     def sensitivities(self) -> list[PETSc.Vec]:
         """dR/df [p, .] for every growth field f, as vectors on the growth space."""

@@ -31,6 +31,7 @@ def clamp_conditions(V: Any, domain: Domain, clamp: str, axisymmetric: bool = Fa
         return _rigid_pins(V, mesh, axisymmetric)
     fdim = mesh.topology.dim - 1
     facets = domain.facet_tags.find(domain.boundaries[clamp])
+    mesh.topology.create_connectivity(fdim, mesh.topology.dim)  # 0.9 does not create it
     dofs = dolfinx.fem.locate_dofs_topological(V, fdim, facets)
     zero = np.zeros(mesh.geometry.dim, dtype=np.float64)
     return [dolfinx.fem.dirichletbc(zero, dofs, V)]
@@ -87,10 +88,11 @@ def _rigid_pins(V, mesh, axisymmetric: bool = False) -> list:
         pins.append((c, [2]))
     tol = 1e-10 * max(float(extent.max()), 1.0)
     bcs = []
+    mesh.topology.create_connectivity(0, mesh.topology.dim)  # 0.9 does not create it
     for point, components in pins:
         vertices = dolfinx.mesh.locate_entities(
             mesh, 0, lambda x, p=point: np.linalg.norm(x - p.reshape(3, 1), axis=0) < tol)
         for component in components:
             dofs = dolfinx.fem.locate_dofs_topological(V.sub(component), 0, vertices)
-            bcs.append(dolfinx.fem.dirichletbc(np.float64(0.0), dofs, V.sub(component)))  # type: ignore[arg-type]
+            bcs.append(dolfinx.fem.dirichletbc(np.float64(0.0), dofs, V.sub(component)))
     return bcs

@@ -15,6 +15,7 @@ import dolfinx.fem.petsc
 import ufl
 from petsc4py import PETSc
 
+from .. import compat
 from .options import SolverOptions
 
 
@@ -53,9 +54,9 @@ class HelmholtzFilter:
         if not self.active:
             out.x.array[:] = rho.x.array
             return
-        self.M.mult(rho.vector, self._work)
+        self.M.mult(compat.petsc_vec(rho), self._work)
         with self.options.pushed():
-            self.ksp.solve(self._work, out.vector)
+            self.ksp.solve(self._work, compat.petsc_vec(out))
         out.x.scatter_forward()
 
     def backward(self, dual: PETSc.Vec, out: PETSc.Vec) -> None:

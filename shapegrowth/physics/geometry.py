@@ -98,9 +98,9 @@ def check_cells(mesh, flat: float = 1e-8) -> None:
     import dolfinx.fem
     import ufl
 
-    from ..compat import interpolate_expression
+    from ..compat import interpolate_expression, scalar_space
 
-    dg0 = dolfinx.fem.Function(dolfinx.fem.FunctionSpace(mesh, ("DG", 0)))
+    dg0 = dolfinx.fem.Function(scalar_space(mesh, 0, "DG"))
     interpolate_expression(dg0, abs(ufl.JacobianDeterminant(mesh)))
     n = mesh.topology.index_map(mesh.topology.dim).size_local
     det = dg0.x.array[:n]

@@ -188,9 +188,8 @@ class StateProblem:
         """det F at the quadrature points of ``degree`` on the owned cells."""
         mesh = self.domain.mesh
         points, _ = compat.reference_quadrature(mesh, degree)
-        expr = dolfinx.fem.Expression(self.volume_ratio(), points)
         cells = np.arange(mesh.topology.index_map(mesh.topology.dim).size_local, dtype=np.int32)
-        return lambda: expr.eval(cells)
+        return compat.expression_evaluator(self.volume_ratio(), points, mesh, cells)
 
     def inverted_points(self) -> int:
         """How many sample points of the current state have det F <= 0 (all ranks)."""
@@ -218,21 +217,21 @@ class StateProblem:
     def assemble_residual(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
         """R(x) into ``b``, with the Dirichlet rows set to x - g (SNES's residual)."""
         x.ghostUpdate(addv=_INSERT, mode=_FORWARD)
-        x.copy(self.u.vector)
-        self.u.vector.ghostUpdate(addv=_INSERT, mode=_FORWARD)
+        u = compat.petsc_vec(self.u)
+        x.copy(u)
+        u.ghostUpdate(addv=_INSERT, mode=_FORWARD)
         with b.localForm() as b_local:
             b_local.set(0.0)
         dolfinx.fem.petsc.assemble_vector(b, self.residual_form)
-        dolfinx.fem.petsc.apply_lifting(b, [self.jacobian_form], bcs=[self.bcs], x0=[x],
-                                        scale=-1.0)
+        compat.apply_lifting(b, [self.jacobian_form], [self.bcs], [x], alpha=-1.0)
         b.ghostUpdate(addv=_ADD, mode=_REVERSE)
-        dolfinx.fem.petsc.set_bc(b, self.bcs, x, -1.0)
+        compat.set_bc(b, self.bcs, x, alpha=-1.0)
 
     def assemble_tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
         """The tangent (5.12) at the current ``u`` into ``A`` (SNES's Jacobian)."""
         A.zeroEntries()
         # dolfinx 0.5's annotations miss this (singledispatch) overload
-        dolfinx.fem.petsc.assemble_matrix(A, self.jacobian_form, bcs=self.bcs)  # type: ignore[misc]
+        dolfinx.fem.petsc.assemble_matrix(A, self.jacobian_form, bcs=self.bcs)
         A.assemble()
         self.jacobian_assemblies += 1
 
@@ -243,7 +242,7 @@ class StateProblem:
         while each leaves at most ``chord_contraction`` of the residual; a step that does not
         reduce it is undone.  Returns the residual norm before the first step (the reference
         of Newton's relative tolerance) and the steps kept (collective)."""
-        x, b, du = self.u.vector, self._chord_b, self._chord_du
+        x, b, du = compat.petsc_vec(self.u), self._chord_b, self._chord_du
         ksp = self.snes.getKSP()
         self.assemble_residual(x, b)
         r0 = previous = b.norm()
@@ -279,7 +278,7 @@ class StateProblem:
         """Newton's method from ``self.u``; ``reference``: the residual norm its relative
         tolerance is taken of (default: the residual at the start); ``rtol``: that
         tolerance (default solver.rtol)."""
-        x = self.u.vector
+        x = compat.petsc_vec(self.u)
         tolerances = self.snes.getTolerances()  # rtol, atol, stol, max_it
         rtol = tolerances[0] if rtol is None else rtol
         if reference is not None:  # the same stopping residual as without the predictor

@@ -42,11 +42,8 @@ class QuadratureCloud:
         self.weight = weight
         if not isinstance(weight, float):
             self.w *= self._eval(weight).reshape(-1)
-        cell = mesh.ufl_cell()
-        self.Q = dolfinx.fem.FunctionSpace(
-            mesh, ufl.FiniteElement("Quadrature", cell, degree, quad_scheme="default"))
-        self.QV = dolfinx.fem.FunctionSpace(
-            mesh, ufl.VectorElement("Quadrature", cell, degree, quad_scheme="default"))
+        self.Q = compat.quadrature_space(mesh, degree)
+        self.QV = compat.quadrature_space(mesh, degree, vector=True)
         self.dofs = np.array([self.Q.dofmap.cell_dofs(c) for c in self.cells],
                              dtype=np.int64).reshape(-1)
         self.dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": degree,
@@ -57,8 +54,7 @@ class QuadratureCloud:
         return len(self.w)
 
     def _eval(self, expr) -> np.ndarray:
-        compiled = dolfinx.fem.Expression(expr, self.ref_points)
-        return compiled.eval(self.cells)
+        return compat.evaluate_expression(expr, self.ref_points, self.mesh, self.cells)
 
     def reference(self) -> PointCloud:
         return PointCloud(self.X.copy(), self.w.copy())
@@ -71,12 +67,14 @@ class QuadratureCloud:
                          volume_ratio: ufl.core.expr.Expr | None = None):
         """A function returning the deformed cloud for the current values of ``u``;
         ``volume_ratio``: deformed per reference measure (default det F)."""
-        position = dolfinx.fem.Expression(ufl.SpatialCoordinate(self.mesh) + u, self.ref_points)
-        jacobian = dolfinx.fem.Expression(self._volume_ratio(u, volume_ratio), self.ref_points)
+        position = compat.expression_evaluator(ufl.SpatialCoordinate(self.mesh) + u,
+                                               self.ref_points, self.mesh, self.cells)
+        jacobian = compat.expression_evaluator(self._volume_ratio(u, volume_ratio),
+                                               self.ref_points, self.mesh, self.cells)
 
         def deformed() -> PointCloud:
-            points = position.eval(self.cells).reshape(-1, self.gdim)
-            J = jacobian.eval(self.cells).reshape(-1)
+            points = position().reshape(-1, self.gdim)
+            J = jacobian().reshape(-1)
             return PointCloud(points, J * self.w)
 
         return deformed
