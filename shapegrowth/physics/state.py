@@ -432,11 +432,13 @@ def rigid_body_modes(V) -> PETSc.NullSpace:
     else:
         modes[2, :, 0], modes[2, :, 1] = -x[:, 1], x[:, 0]
     vecs = []
-    for mode in modes:
-        vec = dolfinx.la.create_petsc_vector(index_map, bs)
-        vec.array[:] = mode.ravel()
+    for mode in modes:  # Gram-Schmidt with PETSc's (global) products: dolfinx.la's
+        vec = dolfinx.la.create_petsc_vector(index_map, bs)  # orthonormalize takes
+        vec.array[:] = mode.ravel()  # PETSc vectors in 0.5.2, its own in 0.9
+        for other in vecs:
+            vec.axpy(-vec.dot(other), other)
+        vec.normalize()
         vecs.append(vec)
-    dolfinx.la.orthonormalize(vecs)
     return PETSc.NullSpace().create(vectors=vecs)
 
 
