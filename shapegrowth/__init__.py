@@ -51,6 +51,8 @@ _API = {
     "evaluate_at": ("shapegrowth.compat", "evaluate_at_points"),
     "surface": ("shapegrowth.io.plotting", "surface"),
     "draw": ("shapegrowth.io.plotting", "draw"),
+    "read_surface": ("shapegrowth.shape.surface_files", "read_surface"),
+    "write_stl": ("shapegrowth.shape.surface_files", "write_stl"),
 }
 __all__ = [
     "__version__",
@@ -83,6 +85,8 @@ __all__ = [
     "evaluate_at",
     "surface",
     "draw",
+    "read_surface",
+    "write_stl",
 ]
 
 if TYPE_CHECKING:
@@ -104,6 +108,7 @@ if TYPE_CHECKING:
     from .physics.model import ForwardModel, build_model
     from .physics.state import StateProblem
     from .shape.hausdorff import PointCloud, SmoothHausdorff
+    from .shape.surface_files import read_surface, write_stl
     from .status import Outcome, Status
 
 

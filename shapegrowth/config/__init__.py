@@ -31,6 +31,7 @@ from .sections import (
     Scalar,
     SolverConfig,
     TargetConfig,
+    TransformConfig,
     VerifyConfig,
     resolved,
 )
@@ -59,6 +60,7 @@ __all__ = [
     "AnglesConfig",
     "GrowthConfig",
     "TargetConfig",
+    "TransformConfig",
     "HausdorffConfig",
     "ComplexityConfig",
     "ObjectiveConfig",

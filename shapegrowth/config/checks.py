@@ -172,6 +172,9 @@ def _check_reduced(cfg: Config, section: Section, errors: list[str]) -> None:
     if cfg.target is not None and cfg.target.mesh is not None:
         errors.append("target.mesh: a 2D section model takes a target.map (the 3D body's); "
                       "use model.dim: 3 for a target mesh")
+    if cfg.target is not None and cfg.target.surface is not None:
+        errors.append("target.surface: a 2D section model takes a target.map (the 3D body's); "
+                      "use model.dim: 3 for a surface target")
     lift = cfg.verify.lift
     if lift is not None and not Path(lift).is_file():
         errors.append(f"verify.lift: file '{lift}' not found (the 3D config to lift to)")
@@ -308,10 +311,35 @@ def _check_expressions(cfg: Config, growth: GrowthConfig, errors: list[str]) -> 
 def _check_target(cfg: Config, errors: list[str]) -> None:
     target = cfg.target
     assert target is not None  # the caller checks
-    if (target.map is None) == (target.mesh is None):
-        errors.append("target: give exactly one of 'map' (expressions) or 'mesh' (a file)")
+    given = [key for key in ("map", "mesh", "surface") if getattr(target, key) is not None]
+    if len(given) != 1:
+        errors.append("target: give exactly one of 'map' (expressions), 'mesh' (a volume mesh "
+                      "file) or 'surface' (a closed surface file)"
+                      + (f", not {' and '.join(given)}" if given else ""))
     if target.map is not None and len(target.map) != cfg.growth_dim:
         errors.append(f"target.map: give {cfg.growth_dim} components"
                       + (" (the 3D body's map)" if cfg.section.reduced else ""))
     if target.mesh is not None and not Path(target.mesh).is_file():
         errors.append(f"target.mesh: file '{target.mesh}' not found")
+    if target.surface is not None:
+        if not Path(target.surface).is_file():
+            errors.append(f"target.surface: file '{target.surface}' not found")
+        elif Path(target.surface).suffix.lower() not in (".stl", ".obj", ".ply", ".msh"):
+            errors.append(f"target.surface: '{target.surface}' has an unknown format; give "
+                          ".stl, .obj, .ply or .msh")
+        if cfg.dim != 3 and not cfg.section.reduced:
+            errors.append("target.surface: a surface bounds a 3D solid; use model.dim: 3 (a 2D "
+                          "model takes target.map or a 2D target.mesh)")
+    _check_transform(target, errors)
+
+
+def _check_transform(target, errors: list[str]) -> None:
+    t = target.transform
+    if target.map is not None and not t.identity:
+        errors.append("target.transform: places a mesh or surface file; write a map in place")
+    scale = t.scale if isinstance(t.scale, tuple) else (t.scale,)
+    if len(scale) not in (1, 3) or not all(s > 0 for s in scale):
+        errors.append("target.transform.scale: give one positive number or three")
+    for key in ("rotation", "translation"):
+        if len(getattr(t, key)) != 3:
+            errors.append(f"target.transform.{key}: give three numbers (X1, X2, X3)")

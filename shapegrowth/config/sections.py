@@ -159,11 +159,43 @@ class GrowthConfig:
         "(its summary.json and growth.npz)", None)
 
 
+ALIGNMENTS = ("none", "principal_axes")
+
+
+@dataclass(frozen=True)
+class TransformConfig:
+    """Where a target file lands: x -> R (s x) + t, then optionally a rigid alignment."""
+
+    scale: float | tuple[float, ...] = option(
+        "scale factor s of the file's coordinates (one number, or one per axis), e.g. 0.001 "
+        "for a file in millimetres and a body in metres", 1.0)
+    rotation: tuple[float, ...] = option(
+        "rotation R in degrees about X1, then X2, then X3 (fixed axes), after the scaling",
+        (0.0, 0.0, 0.0))
+    translation: tuple[float, ...] = option("translation t, after the rotation",
+                                            (0.0, 0.0, 0.0))
+    align: str = option(
+        "'principal_axes': then move the target rigidly so that its centroid and principal "
+        "axes of inertia fall on the body's reference ones (needs three distinct principal "
+        "moments in both)", "none", choices=ALIGNMENTS)
+
+    @property
+    def identity(self) -> bool:
+        return (self.scale in (1.0, (1.0, 1.0, 1.0)) and not any(self.rotation)
+                and not any(self.translation) and self.align == "none")
+
+
 @dataclass(frozen=True)
 class TargetConfig:
     map: tuple[Scalar, ...] | None = option("target map Phi_d(X), one expression per component",
                                             None)
     mesh: str | None = option("target body as a mesh file (gmsh .msh)", None)
+    surface: str | None = option(
+        "target body as a closed surface file (STL, OBJ, PLY or gmsh .msh triangles), filled "
+        "with tetrahedra by gmsh; open surfaces are refused (3D models)", None)
+    transform: TransformConfig = option(
+        "placement of a mesh or surface target's file (units, rotation, position)",
+        TransformConfig())
     weights: str = option(
         "map targets: the measure of the target cloud: 'volume' w_q |det grad Phi_d| (the "
         "target's own volume; the push-forward where the map has no volume) or 'pushforward' "

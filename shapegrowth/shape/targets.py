@@ -10,6 +10,10 @@
 * ``target: {mesh: file}``: the quadrature points of the target mesh's cells with
   their physical weights (gmsh .msh through gmsh; other formats through meshio
   when it is installed).  Each rank takes a contiguous share of the cells.
+* ``target: {surface: file}``: a closed surface (STL, OBJ, PLY, .msh triangles) filled
+  with tetrahedra by gmsh (surface_files.py), then sampled like a mesh.
+* ``target.transform`` places a mesh or surface file (placement.py): scaled, rotated,
+  translated, and optionally aligned by principal axes onto the body's reference.
 """
 
 from __future__ import annotations
@@ -20,11 +24,13 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import compat
-from ..config import Config, ConfigError, resolved
+from ..config import Config, ConfigError, TransformConfig, resolved
 from ..config.expressions import evaluate
 from ..config.maps import map_jacobian
 from .clouds import QuadratureCloud
 from .hausdorff import PointCloud
+from .placement import affine, principal_alignment
+from .surface_files import filled_surface
 
 
 def target_cloud(cfg: Config, cloud: QuadratureCloud, comm: MPI.Comm) -> PointCloud:
@@ -44,14 +50,33 @@ def target_cloud(cfg: Config, cloud: QuadratureCloud, comm: MPI.Comm) -> PointCl
         if section.reduced:
             points = section.in_plane(points)
         return PointCloud(points, cloud.w * map_jacobian(cfg, X, target.weights))
-    return mesh_cloud(Path(resolved(target.mesh)), cfg.dim, cloud.degree, comm)
+    if target.surface is not None:
+        nodes, cells = filled_surface(Path(target.surface))
+    else:
+        nodes, cells = _read_simplices(Path(resolved(target.mesh)), cfg.dim)
+    return file_cloud(nodes, cells, cloud, target.transform, comm)
 
 
-def mesh_cloud(path: Path, dim: int, degree: int, comm: MPI.Comm) -> PointCloud:
-    """Quadrature points and weights of the dim-dimensional simplices of a mesh file."""
-    nodes, cells = _read_simplices(path, dim)
+def file_cloud(nodes: np.ndarray, cells: np.ndarray, cloud: QuadratureCloud,
+               transform: TransformConfig, comm: MPI.Comm) -> PointCloud:
+    """The cloud of a file's simplices (whole on every rank) placed by ``transform``: each
+    rank takes a contiguous share of the cells, sampled at ``cloud``'s degree."""
+    if not transform.identity:
+        nodes = affine(nodes, transform)
+    if transform.align == "principal_axes":
+        whole = simplex_cloud(nodes, cells, cloud.degree)
+        body = cloud.reference()
+        points = np.concatenate(comm.allgather(body.points))
+        weights = np.concatenate(comm.allgather(body.weights))
+        R, t = principal_alignment((whole.points, whole.weights), (points, weights))
+        nodes = nodes @ R.T + t
     lo, hi = (len(cells) * comm.rank) // comm.size, (len(cells) * (comm.rank + 1)) // comm.size
-    cells = cells[lo:hi]
+    return simplex_cloud(nodes, cells[lo:hi], cloud.degree)
+
+
+def simplex_cloud(nodes: np.ndarray, cells: np.ndarray, degree: int) -> PointCloud:
+    """Quadrature points and weights of simplices (n, dim + 1) on ``nodes`` (n, dim)."""
+    dim = nodes.shape[1]
     ref_points, ref_weights = compat.simplex_quadrature(dim, degree)
     v0 = nodes[cells[:, 0]]
     jac = np.stack([nodes[cells[:, k + 1]] - v0 for k in range(dim)], axis=2)  # (n, dim, dim)
