@@ -14,12 +14,13 @@ export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 export OMPI_MCA_rmaps_base_oversubscribe := 1
 MPIRUN := mpirun -n $(NP)
 
-.PHONY: reachable setup run bend test lint test-serial test-mpi notebooks bench reproduce reproduce-compare reference-docs clean help
+.PHONY: reachable setup run bend test test-debian13 lint test-serial test-mpi notebooks bench reproduce reproduce-compare reference-docs clean help
 
 help:
 	@echo "make run    - the default scene end to end (installs what is missing)"
 	@echo "make bend   - the forward model alone: a beam bent into a half circle"
 	@echo "make test   - the test suite, serial and under mpirun -n $(NP), and the notebooks"
+	@echo "make test-debian13 - the same suite in a Debian 13 root (dolfinx 0.9; root, debootstrap)"
 	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
 	@echo "make bench  - the performance benchmark (results/bench/bench.json, minutes)"
 	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (about 30 min)"
@@ -45,6 +46,11 @@ bend: setup
 
 test: setup
 	@$(MAKE) --no-print-directory lint test-serial test-mpi notebooks
+
+# The whole suite again inside a Debian 13 root (dolfinx 0.9.0, PETSc 3.22), built once and
+# cached in ~/.cache/shapegrowth/debian13; skipped with one line where it cannot run
+test-debian13:
+	@scripts/debian13.sh
 
 # ruff on the package, its tests, scripts, benchmarks and notebook sources, and mypy on the
 # package (both configured in pyproject.toml)

@@ -1,0 +1,54 @@
+"""The second platform's leg (`make test-debian13`) says why where it cannot run, and the
+compat module is the only place that asks for dolfinx's version."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "scripts" / "debian13.sh"
+
+
+def _run(command: list[str], env: dict[str, str]) -> subprocess.CompletedProcess:
+    return subprocess.run(command, env=env, capture_output=True, text=True, timeout=60)
+
+
+@pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None,
+                    reason="needs root and setpriv to run the script as another user")
+def test_the_debian13_leg_skips_with_one_line_when_not_root():
+    result = _run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", "bash",
+                   str(SCRIPT)], {"PATH": os.environ["PATH"], "HOME": "/nonexistent"})
+    assert result.returncode == 0
+    assert result.stdout.strip() == ("test-debian13: skipped: needs root (debootstrap, chroot "
+                                     "and mount); run it as root")
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="the check after the root check")
+def test_the_debian13_leg_skips_with_one_line_without_debootstrap(tmp_path):
+    """A PATH with the shell's tools but neither debootstrap nor apt-get, and no cached root."""
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    for tool in ("bash", "id", "dirname", "chroot"):
+        found = shutil.which(tool)
+        assert found, tool
+        (bin_dir / tool).symlink_to(found)
+    env = {"PATH": str(bin_dir), "HOME": str(tmp_path),
+           "SHAPEGROWTH_DEBIAN13_ROOT": str(tmp_path / "no-root-here")}
+    result = _run([str(bin_dir / "bash"), str(SCRIPT)], env)
+    assert result.returncode == 0
+    assert result.stdout.strip() == ("test-debian13: skipped: no debootstrap, and no apt-get "
+                                     "to install it")
+    assert not (tmp_path / "no-root-here").exists()
+
+
+def test_only_compat_asks_for_the_dolfinx_version():
+    """Every version difference lives in compat.py: no other module reads the version."""
+    readers = [p.relative_to(ROOT).as_posix() for p in (ROOT / "shapegrowth").rglob("*.py")
+               if p.name != "compat.py"
+               and any(word in p.read_text() for word in ("dolfinx.__version__", "AT_LEAST_"))]
+    assert readers == []
