@@ -70,13 +70,13 @@ def write_ascii_stl(path, s: TriangleSurface) -> None:
     lines = ["solid test"]
     for tri in s.points[s.triangles]:
         lines += ["facet normal 0 0 0", " outer loop"]
-        lines += [f"  vertex {x!r} {y!r} {z!r}" for x, y, z in tri]
+        lines += [f"  vertex {x:.17g} {y:.17g} {z:.17g}" for x, y, z in tri]
         lines += [" endloop", "endfacet"]
     path.write_text("\n".join(lines + ["endsolid test"]) + "\n")
 
 
 def write_obj(path, s: TriangleSurface) -> None:
-    rows = [f"v {x!r} {y!r} {z!r}" for x, y, z in s.points]
+    rows = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in s.points]
     rows += ["f " + " ".join(f"{i + 1}/{i + 1}" for i in tri) for tri in s.triangles]
     path.write_text("# test\n" + "\n".join(rows) + "\n")
 
@@ -92,7 +92,7 @@ def write_ply(path, s: TriangleSurface, binary: bool) -> None:
         body = b"".join(struct.pack("<dddB", *p, 7) for p in s.points)
         body += b"".join(struct.pack("<Biii", 3, *t) for t in s.triangles)
     else:
-        body = "".join(f"{x!r} {y!r} {z!r} 7\n" for x, y, z in s.points).encode()
+        body = "".join(f"{x:.17g} {y:.17g} {z:.17g} 7\n" for x, y, z in s.points).encode()
         body += "".join(f"3 {a} {b} {c}\n" for a, b, c in s.triangles).encode()
     path.write_bytes(head + body)
 
