@@ -431,7 +431,7 @@ def rigid_body_modes(V) -> PETSc.NullSpace:
         modes[5, :, 2], modes[5, :, 1] = x[:, 1], -x[:, 2]
     else:
         modes[2, :, 0], modes[2, :, 1] = -x[:, 1], x[:, 0]
-    vecs = []
+    vecs: list[PETSc.Vec] = []
     for mode in modes:  # Gram-Schmidt with PETSc's (global) products: dolfinx.la's
         vec = dolfinx.la.create_petsc_vector(index_map, bs)  # orthonormalize takes
         vec.array[:] = mode.ravel()  # PETSc vectors in 0.5.2, its own in 0.9
