@@ -31,7 +31,8 @@ def test_reachable_target_is_found(tmp_path):
     assert s["hausdorff_initial"] / s["target_size"] > 0.4
     assert s["hausdorff_final"] / s["target_size"] < 0.025
     assert s["rho_H_final"] < 0.2 * s["rho_H_initial"]
-    for name in ("history.csv", "history.png", "fields.xdmf", "fields.h5", "checkpoint.h5"):
+    for name in ("history.csv", "history.png", "shape3d.png", "fields.xdmf", "fields.h5",
+                 "checkpoint.h5"):
         assert (tmp_path / name).is_file(), name
     rows = history(tmp_path)
     assert len(rows) == s["iterations"] == 30

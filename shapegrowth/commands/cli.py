@@ -69,6 +69,12 @@ def _parser() -> argparse.ArgumentParser:
     lift.add_argument("run_dir", type=Path, help="folder of a finished run of a 2D model")
     lift.add_argument("--config", required=True,
                       help="YAML config of the 3D body (--set applies to it)")
+    fig = sub.add_parser("figure", parents=[options],
+                         help="a finished run's deformed body over its target, in 3D "
+                              "(shape3d.png)")
+    fig.add_argument("run_dir", type=Path, help="folder of a finished run")
+    fig.add_argument("--view", type=_view, default=[24.0, -62.0], metavar="ELEV,AZIM",
+                     help="camera elevation and azimuth in degrees (default 24,-62)")
     study = sub.add_parser("study", parents=[common],
                            help="a grid of settings: accuracy against cost (study.csv, study.png)")
     study.add_argument("--sweep", action="append", default=[], metavar="KEY=V1,V2,...",
@@ -116,6 +122,16 @@ def _numbers(kind: type, what: str, valid):
 
 _sizes = _numbers(float, "positive mesh sizes", lambda v: v > 0)
 _ranks = _numbers(int, "rank counts >= 1", lambda v: v >= 1)
+
+
+def _view(text: str) -> list[float]:
+    """--view ELEV,AZIM: two angles in degrees."""
+    values = _numbers(float, "two angles in degrees (elevation, azimuth)",
+                      lambda v: abs(v) <= 360)(text)
+    if len(values) != 2:
+        raise argparse.ArgumentTypeError(
+            f"two angles in degrees (elevation, azimuth), got {text!r}")
+    return values
 
 
 def _validate(cfg, args) -> int:
@@ -167,6 +183,15 @@ def _lift(cfg, args) -> int:
 
     lifted = lift_run(args.run_dir, cfg, args.out or args.run_dir / "lift")
     return EXIT_OK if lifted.relative is not None else EXIT_FAILED
+
+
+def _figure(args) -> int:
+    from ..io.figures3d import View
+    from .figure import figure
+
+    elevation, azimuth = args.view
+    figure(args.run_dir, args.out or args.run_dir, View(elevation, azimuth))
+    return EXIT_OK
 
 
 def _study(cfg, args) -> int:
@@ -281,6 +306,8 @@ def main(argv: list[str] | None = None) -> int:
             return EXIT_BAD_INPUT
         args.config, args.overrides = str(DEFAULT_CONFIG), DEFAULT_OVERRIDES + args.overrides
     try:
+        if args.command == "figure":  # the run's own config
+            return _figure(args)
         cfg = load(args.config, args.overrides)
         return COMMANDS[args.command](cfg, args)
     except (ConfigError, InputError) as err:

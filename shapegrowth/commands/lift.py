@@ -27,14 +27,16 @@ from .solve import InputError
 log = logging.getLogger(__name__)
 
 
-def reduced_run(run_dir: Path, solve: bool = True
+def reduced_run(run_dir: Path, solve: bool = True, command: str = "lift"
                 ) -> tuple[Config, RunSummary, ForwardModel]:
-    """The run's config, summary and 2D model at its best growth, in equilibrium from rest
-    where that solve converges (``solve``; else at rest) (collective)."""
+    """The run's config, summary and model (a 2D one for the lift) at its best growth, in
+    equilibrium from rest where that solve converges (``solve``; else at rest)
+    (collective); ``command`` names the caller in errors."""
     for name in ("summary.json", "growth.npz"):
         if not (run_dir / name).is_file():
-            raise InputError(f"lift: {run_dir / name} not found (RUN_DIR is the folder of a "
-                             "finished `shapegrowth run` of a 2D section model)")
+            kind = " of a 2D section model" if command == "lift" else ""
+            raise InputError(f"{command}: {run_dir / name} not found (RUN_DIR is the folder of "
+                             f"a finished `shapegrowth run`{kind})")
     summary = RunSummary.from_json(io.read_json(run_dir / "summary.json"))
     # the mesh of the run's last level
     base = from_dict(summary.config)
@@ -43,12 +45,12 @@ def reduced_run(run_dir: Path, solve: bool = True
     try:
         io.read_growth(run_dir / "growth.npz", model.state.applied)
     except ValueError as err:
-        raise InputError(f"lift: {err}") from None
+        raise InputError(f"{command}: {err}") from None
     model.growth.assign(model.state.applied.values())
     if solve:  # a 2D solve: seconds
         report = model.state.solve()
         if not report.converged:  # back to the run's growth, at rest
-            log.warning("lift: the section from rest: %s", report.reason)
+            log.warning("%s: the best growth from rest: %s", command, report.reason)
             model.state.reset()
             io.read_growth(run_dir / "growth.npz", model.state.applied)
     return cfg, summary, model

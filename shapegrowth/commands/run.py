@@ -1,8 +1,10 @@
 """``shapegrowth run``: build the model, optimise, and write every output.
 
 Outputs in the run folder: summary.json, history.csv, history.png, shape.png (the
-deformed body coloured by lambda_hat_1, the target as dots), frame.png (a free 2D frame:
-its eigenvectors on the deformed body), fields.xdmf (+ .h5:
+deformed body coloured by lambda_hat_1, the target as dots), shape3d.png (the same in 3D
+over the translucent target; a section swept back into its 3D body; not for plane
+bodies), frame.png (a free 2D frame: its eigenvectors on the deformed body), fields.xdmf
+(+ .h5:
 displacement, Phi, the filtered growth fields lambda_hat_i/theta_hat_i, the
 eigenvectors v_i, residual_strain), growth.npz (the best growth at its nodes, for
 ``shapegrowth lift``) and checkpoint.h5.
@@ -23,6 +25,7 @@ from ..config import load, resolved
 from ..io import files as io
 from ..io.along import VerifyEvery
 from ..io.checkpoint import CheckpointFile
+from ..io.figures3d import write_shape3d_png
 from ..io.plotting import write_frame_png, write_shape_png
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
 from ..optim.callbacks import FromRestEvery, ProgressLog, ProgressTolerance, RetryFromRest
@@ -162,6 +165,8 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         applied = model.state.applied
         write_shape_png(out / "shape.png", model.state.u, applied.eigenvalues[0],
                         rf.objective.target.points, "lambda_hat_1")
+        write_shape3d_png(out / "shape3d.png", model.cfg, model.state.u,
+                          applied.eigenvalues[0], rf.objective.target.points, "lambda_hat_1")
         if applied.frame == "free" and applied.dim == 2:
             write_frame_png(out / "frame.png", model.state.u, applied.eigenvalues,
                             applied.angles[0], rf.objective.target.points)

@@ -58,8 +58,9 @@ def surface(u: dolfinx.fem.Function, field: dolfinx.fem.Function | None = None) 
 
 
 def draw(ax, surf: Surface, deformed: bool = True, cmap: str = "viridis",
-         alpha: float = 1.0, edgecolor: str | None = None, clim=None,
-         plane: tuple[int, int] = (0, 1)):
+         alpha: float = 1.0, edgecolor=None, clim=None,
+         plane: tuple[int, int] = (0, 1), facecolor: tuple[float, float, float] | None = None,
+         linewidth: float = 0.2):
     """Draw on a matplotlib axis: 3D axes show the surface, 2D axes its projection on the
     coordinate ``plane`` ((0, 2): a side view X1-X3); returns the mappable."""
     P = surf.deformed if deformed else surf.reference
@@ -67,7 +68,7 @@ def draw(ax, surf: Surface, deformed: bool = True, cmap: str = "viridis",
         from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
         faces = P[surf.triangles]
-        poly = Poly3DCollection(faces, alpha=alpha, linewidths=0.2,
+        poly = Poly3DCollection(faces, alpha=alpha, linewidths=linewidth,
                                 edgecolor=edgecolor or (0, 0, 0, 0.15))
         if surf.values is not None:
             poly.set_array(surf.values[surf.triangles].mean(axis=1))
@@ -75,7 +76,7 @@ def draw(ax, surf: Surface, deformed: bool = True, cmap: str = "viridis",
             if clim is not None:
                 poly.set_clim(*clim)
         else:
-            poly.set_facecolor((0.55, 0.7, 0.9, alpha))
+            poly.set_facecolor((*(facecolor or (0.55, 0.7, 0.9)), alpha))
         ax.add_collection3d(poly)
         _equal_3d(ax, P)
         return poly
