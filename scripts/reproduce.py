@@ -140,6 +140,19 @@ def run_scene(scene: Scene, out: Path, ranks: int, overrides: list[str]) -> RunS
     return finished(folder)
 
 
+def draw_3d(scene: Scene, out: Path, ranks: int) -> None:
+    """shape3d.png for a finished run that has none (made before runs drew it): the best
+    growth grown from rest on the run's last mesh (`shapegrowth figure`); scenes 1-5 only
+    (the square is a plane body, its picture is shape.png)."""
+    folder = out / scene.name
+    if scene.number > 5 or (folder / "shape3d.png").exists() or finished(folder) is None:
+        return
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OPENBLAS_NUM_THREADS="1")
+    print(f"reproduce: drawing {scene.name} in 3D", flush=True)
+    subprocess.run(shapegrowth_command(["figure", str(folder), "-q"], ranks), env=env, cwd=ROOT)
+
+
 def _small_png(src: Path, dst: Path) -> None:
     """A copy reduced to a 128-colour palette (3-5x smaller; the figures are committed)."""
     try:
@@ -259,19 +272,24 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
             text += f" {WHY[number]}"
         lines.append(text)
     lines += ["", "## Figures", "",
-              "Each run's own figures: the deformed body (a section model's section) over the "
-              "target, and the objective's history.", ""]
+              "Each run's own figures: its best growth grown from rest on its last mesh, "
+              "drawn in 3D over the translucent target (a section extruded or revolved back "
+              "into its 3D body); the deformed body (a section model's section) over the "
+              "target's sample points; and the objective's history.", ""]
     for scene, s in rows:
         if s is None:
             continue
         name = scene.name
-        for kind in ("shape", "history", "frame"):
+        for kind in ("shape3d", "shape", "history", "frame"):
             src = out / name / f"{kind}.png"
             if src.exists():
                 images.mkdir(parents=True, exist_ok=True)
                 _small_png(src, images / f"{name}_{kind}.png")
-        lines += [f"### {name}", "",
-                  f"![{name}: deformed body and target](img/results/{name}_shape.png)",
+        lines += [f"### {name}", ""]
+        if (out / name / "shape3d.png").exists():
+            lines.append(f"![{name}: deformed body over the translucent target, in 3D]"
+                         f"(img/results/{name}_shape3d.png)")
+        lines += [f"![{name}: deformed body and target](img/results/{name}_shape.png)",
                   f"![{name}: objective history](img/results/{name}_history.png)"]
         if (out / name / "frame.png").exists():
             lines.append(f"![{name}: the optimal eigenvectors](img/results/{name}_frame.png)")
@@ -386,6 +404,7 @@ def main() -> int:
     for scene in SCENES:
         if not only or scene.name in only:
             summary = run_scene(scene, args.out.resolve(), args.ranks, args.overrides)
+            draw_3d(scene, args.out.resolve(), args.ranks)
         else:  # not asked for: a finished run is still reported
             summary = finished(args.out.resolve() / scene.name)
         rows.append((scene, summary))

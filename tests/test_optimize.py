@@ -417,3 +417,23 @@ def test_the_state_tolerance_follows_the_optimisers_progress():
     for k, j in enumerate([1.0, 0.9, 0.9 * (1 - 1e-7)]):
         cb.evaluated(step(k, j))
     assert problem.rtols == [1e-6, pytest.approx(1e-10, rel=1e-5)]
+
+
+@pytest.mark.mpi
+def test_a_free_frame_starts_from_a_fixed_frame_run(shared_tmp):
+    """growth.start: run: a fixed frame's best eigenvalues start the free frame at angle 0,
+    where its frame is the fixed one: the free run's first objective is the fixed run's
+    best to round-off, and it only goes down from there (what breaks the symmetry
+    dJ/dtheta = 0 of an isotropic start)."""
+    square = CONFIGS / "tiny" / "square_disk.yaml"
+    fixed, free = shared_tmp / "fixed", shared_tmp / "free"
+    common = ["--set", "verify.enabled=false", "--set", "optimizer.max_iterations=6", "-q"]
+    assert run_cli("run", square, "--out", fixed, "--set", "growth.frame=cartesian",
+                   "--set", "growth.angles.initial=null", *common) == 0
+    assert run_cli("run", square, "--out", free, "--set", "growth.start=run",
+                   "--set", f"growth.from_run={fixed}", "--set", "growth.angles.initial=[0.0]",
+                   *common) == 0
+    best_fixed = min(r["objective"] for r in history(fixed))
+    rows = history(free)
+    assert rows[0]["objective"] == pytest.approx(best_fixed, rel=1e-9)
+    assert min(r["objective"] for r in rows) < best_fixed

@@ -309,7 +309,7 @@ def test_a_section_probe_is_a_3d_point_and_moves_as_the_3d_body(shared_tmp):
 
 
 def test_a_lifted_start_needs_a_finished_section_run(shared_tmp):
-    with pytest.raises(sg.ConfigError, match="growth.from_run: give it with start: lifted"):
+    with pytest.raises(sg.ConfigError, match="growth.from_run: give it with start: lifted or run"):
         sg.load_config(WAVE, ["growth.start=lifted"])
     with pytest.raises(sg.ConfigError, match="holds no summary.json or growth.npz"):
         sg.load_config(WAVE, ["growth.start=lifted", f"growth.from_run={shared_tmp}"])

@@ -44,7 +44,7 @@ from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer
-from .solve import base_summary
+from .solve import InputError, base_summary
 
 log = logging.getLogger(__name__)
 
@@ -87,6 +87,19 @@ def _start_lifted(model: ForwardModel, run_dir: Path) -> None:
              summary.verified.relative is not None else "not measured")
 
 
+def _start_from_run(model: ForwardModel, run_dir: Path) -> None:
+    """growth.start: run: the best growth of a finished run on the same mesh, field by field
+    (fields it lacks, such as a fixed frame's angles, keep their initial values)."""
+    applied = model.state.applied
+    try:
+        names = io.read_growth(run_dir / "growth.npz", applied, partial=True)
+    except ValueError as err:
+        raise InputError(f"growth.from_run: {err}; start: run needs the same body and the "
+                         "mesh of this run's first level") from None
+    model.growth.assign(applied.values())
+    log.info("growth.start: %s from %s", ", ".join(names), run_dir)
+
+
 def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     """Optimise ``cfg``'s growth and write every output to ``out`` (module doc).  Per level
     of ``optimizer.levels`` (one without): the model, its reduced functional J(m) from the
@@ -107,6 +120,8 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
             model = ForwardModel.build(level_cfg)
             if k == 0 and cfg.growth.start == "lifted":
                 _start_lifted(model, Path(resolved(cfg.growth.from_run)))
+            if k == 0 and cfg.growth.start == "run":
+                _start_from_run(model, Path(resolved(cfg.growth.from_run)))
         rf = ReducedFunctional(model, timer)
         if previous is not None:
             rf.carry_design(*previous)  # exact: the level's mesh is nested in the last one's

@@ -248,16 +248,16 @@ def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:
                           f"[{a_lo}, {a_hi}]")
     if g.start == "target":
         _check_target_start(cfg, errors)
-    if (g.start == "lifted") != (g.from_run is not None):
-        errors.append("growth.from_run: give it with start: lifted (and only then), e.g. "
-                      "from_run: results/beam_wave_2d")
+    if (g.start in ("lifted", "run")) != (g.from_run is not None):
+        errors.append("growth.from_run: give it with start: lifted or run (and only then), "
+                      "e.g. from_run: results/beam_wave_2d")
     elif g.from_run is not None:
         missing = [f for f in ("summary.json", "growth.npz")
                    if not (Path(g.from_run) / f).is_file()]
         if missing:
             errors.append(f"growth.from_run: '{g.from_run}' holds no {' or '.join(missing)} "
-                          "(the folder of a finished run of a 2D section model)")
-        if cfg.model.dim != 3:
+                          "(the folder of a finished run)")
+        if g.start == "lifted" and cfg.model.dim != 3:
             errors.append("growth.start: 'lifted' starts a 3D model (model.dim: 3) from a 2D "
                           "section run")
     if g.frame != "free" and ang.initial is not None and any(

@@ -151,12 +151,15 @@ class GrowthConfig:
     start: str = option(
         "initial growth: 'given' (eigenvalues.initial, angles.initial) or 'target': the target "
         "map's metric grad Phi_d^T grad Phi_d, projected on the frame (free: its eigenvalues "
-        "and directions) and clipped to the bounds, or 'lifted': the best growth of the 2D "
-        "section run in `from_run`, extruded or revolved onto this 3D body", "given",
-        choices=("given", "target", "lifted"))
+        "and directions) and clipped to the bounds, 'lifted': the best growth of the 2D "
+        "section run in `from_run`, extruded or revolved onto this 3D body, or 'run': the "
+        "best growth of the run in `from_run` on the same mesh, field by field (a fixed "
+        "frame's eigenvalues start a free frame at angle 0)", "given",
+        choices=("given", "target", "lifted", "run"))
     from_run: str | None = option(
-        "start: lifted: the folder of a finished run of a 2D section model of this body "
-        "(its summary.json and growth.npz)", None)
+        "start: lifted or run: the folder of a finished run (its summary.json and "
+        "growth.npz): of a 2D section model of this body (lifted), of this body on this "
+        "mesh (run)", None)
 
 
 ALIGNMENTS = ("none", "principal_axes")

@@ -110,10 +110,11 @@ def growth_refinements(path: Path) -> int:
     return int(np.load(path)["refine"])
 
 
-def read_growth(path: Path, growth: Growth) -> None:
+def read_growth(path: Path, growth: Growth, partial: bool = False) -> list[str]:
     """Set ``growth``'s fields from a growth.npz written on the same mesh (any ranks): each
     node takes the value stored at its coordinates.  ValueError when the file does not
-    match the mesh."""
+    match the mesh.  ``partial``: fields the file lacks keep their values (a fixed frame's
+    eigenvalues read into a free frame, whose angles stay); the names set are returned."""
     data = np.load(path)
     from scipy.spatial import cKDTree
 
@@ -123,13 +124,17 @@ def read_growth(path: Path, growth: Growth) -> None:
     local_bad = int(np.count_nonzero(distance > 1e-9 * scale))
     names = [f.name for f in growth.fields]
     missing = [n for n in names if n not in data.files]
+    if partial and len(missing) < len(names):
+        missing = []
     # every stored node is one of the mesh's (a nested coarser mesh matches a subset)
     if growth.mesh.comm.allreduce(local_bad) or missing \
             or compat.global_size(growth.space) != len(data["points"]):
         raise ValueError(f"{path} does not hold this model's growth (other mesh or fields: "
                          f"{missing or 'nodes do not match'})")
-    for f in growth.fields:
+    found = [f for f in growth.fields if f.name in data.files]
+    for f in found:
         f.x.array[:] = data[f.name][index]
+    return [f.name for f in found]
 
 
 HISTORY_COLUMNS = ("iteration", "objective", "rho_H", "complexity", "hausdorff",
