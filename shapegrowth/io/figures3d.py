@@ -10,6 +10,7 @@ triangles; a target from a file is drawn as its sample points.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -128,7 +129,7 @@ def write_shape3d_png(path, cfg: Config, u, field, target_points: np.ndarray, la
     fig = Figure(figsize=(7.0, 5.6), dpi=120)
     # the translucent target painted over the body wherever they overlap (a good fit would
     # otherwise hide it inside the body)
-    ax = fig.add_subplot(projection="3d", computed_zorder=False)
+    ax: Any = fig.add_subplot(projection="3d", computed_zorder=False)  # an Axes3D
     dense = len(body.triangles) > 3000  # edges would hide the colours
     artist = draw(ax, body, edgecolor=(0, 0, 0, 0.3), linewidth=0.0 if dense else 0.1)
     everything = [body.deformed]
@@ -138,7 +139,9 @@ def write_shape3d_png(path, cfg: Config, u, field, target_points: np.ndarray, la
         everything.append(target.deformed)
     elif cloud is not None and len(cloud):
         every = max(1, len(cloud) // 6000)
-        ax.scatter(*cloud[::every].T, s=0.5, c="0.3", alpha=0.25, depthshade=False)
+        shown = cloud[::every]
+        ax.scatter(shown[:, 0], shown[:, 1], shown[:, 2], s=0.5, c="0.3", alpha=0.25,
+                   depthshade=False)
         everything.append(cloud)
     _equal_axes(ax, np.vstack(everything))
     ax.view_init(elev=view.elevation, azim=view.azimuth)

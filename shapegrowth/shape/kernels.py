@@ -55,7 +55,7 @@ def one_thread_per_rank() -> None:
     if not _threads_decided:
         _threads_decided = True
         if "NUMBA_THREADING_LAYER" not in os.environ:
-            numba.config.THREADING_LAYER_PRIORITY = ["omp", "workqueue", "tbb"]  # type: ignore[attr-defined]
+            numba.config.THREADING_LAYER_PRIORITY = ["omp", "workqueue", "tbb"]
         if MPI.COMM_WORLD.size > 1 and "NUMBA_NUM_THREADS" not in os.environ:
             numba.set_num_threads(1)
 
@@ -105,8 +105,7 @@ def _exp(x):
     p811 = p89 + r2 * p1011
     p812 = p811 + r4 * (1.0 / 479001600.0)
     p = (p03 + r4 * p47) + (r4 * r4) * p812
-    # a numba intrinsic: its typing context is numba's, not mypy's
-    return p * _bits_as_float((np.int64(n) + 1023) << 52)  # type: ignore[call-arg]
+    return p * _bits_as_float((np.int64(n) + 1023) << 52)  # a numba intrinsic
 
 
 @numba.njit(cache=True)

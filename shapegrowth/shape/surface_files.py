@@ -156,7 +156,7 @@ def _read_ply(data: bytes) -> tuple[np.ndarray, np.ndarray]:
             for _ in range(count):
                 (n,) = np.frombuffer(body, n_type, 1, offset)
                 offset += np.dtype(n_type).itemsize
-                ids = np.frombuffer(body, i_type, int(n), offset).tolist()
+                ids = [int(i) for i in np.frombuffer(body, i_type, int(n), offset)]
                 offset += int(n) * np.dtype(i_type).itemsize
                 faces.extend([ids[0], ids[k], ids[k + 1]] for k in range(1, len(ids) - 1))
             triangles = np.array(faces, dtype=np.int64).reshape(-1, 3)
