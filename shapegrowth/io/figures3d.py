@@ -16,7 +16,7 @@ import numpy as np
 
 from ..config import Config
 from ..config.expressions import evaluate
-from .plotting import Surface, draw, surface
+from .plotting import Surface, draw, equal_axes_3d, surface
 
 REVOLUTION_SEGMENTS = 64
 
@@ -143,7 +143,7 @@ def write_shape3d_png(path, cfg: Config, u, field, target_points: np.ndarray, la
         ax.scatter(shown[:, 0], shown[:, 1], shown[:, 2], s=0.5, c="0.3", alpha=0.25,
                    depthshade=False)
         everything.append(cloud)
-    _equal_axes(ax, np.vstack(everything))
+    equal_axes_3d(ax, np.vstack(everything))
     ax.view_init(elev=view.elevation, azim=view.azimuth)
     ax.set_xlabel("$x_1$")
     ax.set_ylabel("$x_2$")
@@ -154,11 +154,3 @@ def write_shape3d_png(path, cfg: Config, u, field, target_points: np.ndarray, la
     fig.savefig(path)
     return True
 
-
-def _equal_axes(ax, points: np.ndarray) -> None:
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    centre, half = (lo + hi) / 2, (hi - lo).max() / 2 * 1.02
-    ax.set_xlim(centre[0] - half, centre[0] + half)
-    ax.set_ylim(centre[1] - half, centre[1] + half)
-    ax.set_zlim(centre[2] - half, centre[2] + half)
-    ax.set_box_aspect((1, 1, 1))

@@ -78,7 +78,7 @@ def draw(ax, surf: Surface, deformed: bool = True, cmap: str = "viridis",
         else:
             poly.set_facecolor((*(facecolor or (0.55, 0.7, 0.9)), alpha))
         ax.add_collection3d(poly)
-        _equal_3d(ax, P)
+        equal_axes_3d(ax, P)
         return poly
     import matplotlib.tri as mtri
 
@@ -94,7 +94,8 @@ def draw(ax, surf: Surface, deformed: bool = True, cmap: str = "viridis",
     return artist
 
 
-def _equal_3d(ax, P: np.ndarray) -> None:
+def equal_axes_3d(ax, P: np.ndarray) -> None:
+    """Equal scales on a 3D axis, around the points (n, 3)."""
     lo, hi = P.min(axis=0), P.max(axis=0)
     centre, half = (lo + hi) / 2, (hi - lo).max() / 2 * 1.05
     ax.set_xlim(centre[0] - half, centre[0] + half)
