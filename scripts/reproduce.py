@@ -93,10 +93,12 @@ WHY: dict[int, str] = {
        "section's boundary layer there; the 3D run's self-reported number is below its "
        "verified one: it exploits its own mesh (TRADEOFFS, 'Reduced models' and 'The finding "
        "that matters most').",
-    2: "The ring's section stalls above 1 % on its own, and the 3D body leaves it by far more "
-       "than the shape error (the departure in the table): closing the ring is not a plane "
-       "bending of the 3D strip; the 3D run's verified number spreads widely from run to run "
-       "(TRADEOFFS, 'Reduced models').",
+    2: "Read as the solid ring (the printed map has no thickness: a floor of t/2 over the "
+       "target size, 3.1 %, where every run of it ended), the section verifies below 1 %, but "
+       "lifted onto the 3D strip its growth, which leans on lambda_2 and lambda_3 where the "
+       "compatible growth lambda_1 = (1 - X3/R)^2 needs none, leaves plane stress (the "
+       "departure in the table); the 3D run's verified number spreads widely from run to run "
+       "(TRADEOFFS, 'Scene 2: which ring', 'Reduced models').",
     3: "A helix has no section model; the 3D run's self-reported number is a fraction of its "
        "verified one: the thin tube's optimum sits in its own mesh's discretisation error "
        "(TRADEOFFS, 'Scenes 3 and 5').",
