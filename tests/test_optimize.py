@@ -330,6 +330,7 @@ def test_reproduce_writes_results_from_the_run_folders(tmp_path):
     assert int(row[2]) == free["verified"]["dofs"] > free["dofs"]["state"]
     assert "not run" in text  # the others
     assert "rho_H(square_circle_fixed) / rho_H(square_circle_free) = **" in text
+    assert "Above the floor rho_H(T, T) = " in text  # two iterations: far above it
     assert (tmp_path / "img" / "results" / "square_circle_free_shape.png").is_file()
     again = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
     assert again.returncode == 0 and "reproduce: square" not in again.stdout
