@@ -21,8 +21,20 @@ def _run(command: list[str], env: dict[str, str]) -> subprocess.CompletedProcess
 @pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None,
                     reason="needs root and setpriv to run the script as another user")
 def test_the_debian13_leg_skips_with_one_line_when_not_root():
-    result = _run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", "bash",
-                   str(SCRIPT)], {"PATH": os.environ["PATH"], "HOME": "/nonexistent"})
+    # a copy readable by the other user (a checkout may sit in a private folder)
+    import tempfile
+
+    place = Path(tempfile.mkdtemp())
+    try:
+        place.chmod(0o755)
+        (place / "scripts").mkdir(mode=0o755)
+        script = place / "scripts" / "debian13.sh"
+        shutil.copyfile(SCRIPT, script)
+        script.chmod(0o755)
+        result = _run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", "bash",
+                       str(script)], {"PATH": os.environ["PATH"], "HOME": "/nonexistent"})
+    finally:
+        shutil.rmtree(place)
     assert result.returncode == 0
     assert result.stdout.strip() == ("test-debian13: skipped: needs root (debootstrap, chroot "
                                      "and mount); run it as root")
