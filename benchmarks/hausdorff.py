@@ -43,10 +43,10 @@ def throughput(n: int = 20000) -> None:
     gmin = np.zeros(n)
     radius = np.full(n, np.inf)
     args = (q, grid.xyz, grid.weights, grid.origin, grid.cell, grid.shape, grid.start, gmin,
-            radius, 1000.0, False, True)
+            radius, 1000.0, kernels.CUTOFF, kernels.TAPER, False, True)
     t_val = timed(lambda: kernels.soft_values(*args))
     src = (q, grid.xyz, grid.origin, grid.cell, grid.shape, grid.start, gmin, radius, 1000.0,
-           False, np.ones(n), 8)
+           kernels.CUTOFF, kernels.TAPER, False, np.ones(n), 8)
     t_src = timed(lambda: kernels.soft_source_gradient(*src))
     print(f"brute force, {n} x {n} pairs, float64:")
     print(f"  values + query gradients: {n * n / t_val:.3g} pairs/s")
@@ -55,7 +55,7 @@ def throughput(n: int = 20000) -> None:
 
 def rho(sizes: list[int]) -> None:
     H = SmoothHausdorff(alpha=1000.0)
-    print("rho_H value + gradient, alpha * size = 1000, cutoff exp(-20):")
+    print(f"rho_H value + gradient, alpha * size = 1000, cutoff exp(-{kernels.CUTOFF:g}):")
     for n in sizes:
         for label, (a, b) in {"near": (beam(n), beam(n, noise=1e-3)),
                               "far": (beam(n), beam(n, wave=0.15))}.items():

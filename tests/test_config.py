@@ -69,6 +69,8 @@ def test_an_alpha_schedule_is_a_list(tmp_path):
      "must not decrease"),
     ("objective: {hausdorff: {alpha: [100, -3]}}", "objective.hausdorff.alpha",
      "positive number"),
+    ("objective: {hausdorff: {cutoff: 6, taper: 8}}", "objective.hausdorff.taper",
+     "wider than the cutoff"),
     ("objective: {hausdorff: {form: unbiased}}", "objective.hausdorff.form",
      "allowed: debiased, paper"),
     ("optimizer: {algorithm: bfgs}", "optimizer.algorithm", "allowed: mma, slsqp, lbfgs"),

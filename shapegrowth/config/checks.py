@@ -105,6 +105,10 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     elif any(b < a for a, b in zip(alphas, alphas[1:])):
         errors.append("objective.hausdorff.alpha: a schedule must not decrease (it starts "
                       "smooth and ends sharp), e.g. [100, 300, 1000]")
+    hausdorff = cfg.objective.hausdorff
+    if hausdorff.taper > hausdorff.cutoff:
+        errors.append(f"objective.hausdorff.taper: {hausdorff.taper} is wider than the cutoff "
+                      f"{hausdorff.cutoff}; give at most the cutoff (default 2)")
     _check_levels(cfg, errors)
     if cfg.solver.continuation.min_step > cfg.solver.continuation.initial_step:
         errors.append("solver.continuation.min_step: must not exceed initial_step")

@@ -223,7 +223,10 @@ class HausdorffConfig:
     quadrature_degree: int = option("quadrature degree of the point clouds of both bodies", 2,
                                     ge=1, le=8)
     cutoff: float = option("pairs whose term is below exp(-cutoff) of the nearest are skipped "
-                           "(where that prunes)", 20.0, ge=5)
+                           "(where that prunes); terms fade out smoothly before it, so rho_H "
+                           "and its gradient stay exact for the sum they define", 14.0, ge=5)
+    taper: float = option("width, in e-folds, of the smooth fade-out that ends at the cutoff "
+                          "(no more than the cutoff)", 2.0, gt=0)
 
     @property
     def alphas(self) -> tuple[float, ...]:

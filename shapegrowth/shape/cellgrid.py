@@ -130,31 +130,66 @@ def _min_square(qx, qy, qz, xs, ys, zs):
     return best
 
 
+@numba.njit(cache=True)
+def _argmin_square(qx, qy, qz, xs, ys, zs):
+    """Position of the nearest source in a span (a scalar loop: run once per query, over the
+    span the vectorised minimum found it in)."""
+    best = np.inf
+    at = 0
+    for j in range(xs.shape[0]):
+        dx = qx - xs[j]
+        dy = qy - ys[j]
+        dz = qz - zs[j]
+        d = dx * dx + dy * dy + dz * dz
+        if d < best:
+            best = d
+            at = j
+    return at
+
+
 @numba.njit(parallel=True, cache=True)
-def nearest_distance(queries, xyz, origin, cell, shape, start):
-    """Distance from each query to its nearest source: the ball around the query doubles
-    from one cell until it holds a source no farther than its radius."""
+def nearest_source(queries, xyz, origin, cell, shape, start):
+    """Distance from each query to its nearest source, and that source's position in the
+    grid's sorted order: the ball around the query doubles from one cell until it holds a
+    source no farther than its radius."""
     n = queries.shape[0]
     out = np.empty(n)
+    index = np.empty(n, dtype=np.int64)
     xs, ys, zs = xyz[0], xyz[1], xyz[2]
     reach = cell * math.sqrt(float(shape[0] ** 2 + shape[1] ** 2 + shape[2] ** 2))
     for i in numba.prange(n):
         qx, qy, qz = queries[i, 0], queries[i, 1], queries[i, 2]
         rho = cell
         best = np.inf
+        at0 = 0
+        at1 = 0
         while True:
             x0, x1 = _cell_range(queries[i], rho, origin, cell, shape, 0)
             y0, y1 = _cell_range(queries[i], rho, origin, cell, shape, 1)
             for ix in range(x0, x1 + 1):
                 for iy in range(y0, y1 + 1):
                     j0, j1 = _column(qx, qy, qz, rho, ix, iy, origin, cell, shape, start)
-                    best = min(best, _min_square(qx, qy, qz, xs[j0:j1], ys[j0:j1], zs[j0:j1]))
+                    # blocks of 64: the vectorised minimum of each, the block that holds the
+                    # nearest kept for the scalar search of its position
+                    for b0 in range(j0, j1, 64):
+                        b1 = min(b0 + 64, j1)
+                        here = _min_square(qx, qy, qz, xs[b0:b1], ys[b0:b1], zs[b0:b1])
+                        if here < best:
+                            best = here
+                            at0 = b0
+                            at1 = b1
             if best <= rho * rho or rho > 2.0 * reach + _distance_to_box(queries[i], origin,
                                                                           cell, shape):
                 break
             rho *= 2.0
         out[i] = math.sqrt(best)
-    return out
+        index[i] = at0 + _argmin_square(qx, qy, qz, xs[at0:at1], ys[at0:at1], zs[at0:at1])
+    return out, index
+
+
+def nearest_distance(queries, xyz, origin, cell, shape, start) -> np.ndarray:
+    """Distance from each query to its nearest source (see nearest_source)."""
+    return nearest_source(queries, xyz, origin, cell, shape, start)[0]
 
 
 @numba.njit(cache=True, inline="always")

@@ -84,7 +84,10 @@ class _Direction:
     d: np.ndarray  # soft distances of this rank's queries
     mu: np.ndarray  # dd/ds
     Z: np.ndarray
-    V: np.ndarray
+    V: np.ndarray  # ds/dq Z, the shift's part included
+    P: np.ndarray  # -ds/dgmin Z: the taper's share
+    dg: np.ndarray  # dgmin/dq (n, 3): g'(r) (q - x_n) / r of the nearest source x_n
+    nearest: np.ndarray  # the nearest source's position in the grid's sorted order
     gmin: np.ndarray
     radius: np.ndarray
     grid: cellgrid.SourceGrid
@@ -114,6 +117,7 @@ class SmoothHausdorff:
     phi: str = "exp"
     truncate: bool | None = None  # None: use the cell grid where it prunes
     cutoff: float = kernels.CUTOFF  # pairs beyond exp(-cutoff) of the nearest are dropped
+    taper: float = kernels.TAPER  # ... smoothly over the last ``taper`` e-folds before it
 
     @property
     def rational(self) -> bool:
@@ -121,6 +125,13 @@ class SmoothHausdorff:
 
     def _g(self, r: np.ndarray) -> np.ndarray:
         return np.log1p(r) if self.rational else r
+
+    @property
+    def _cut(self) -> tuple[float, float]:
+        """(cut, width) of the kernels' taper; no taper for an infinite cutoff."""
+        if not np.isfinite(self.cutoff):
+            return 1e300, 1.0
+        return float(self.cutoff), float(min(self.taper, self.cutoff))
 
     def _cutoff_radius(self, gmin: np.ndarray) -> np.ndarray:
         reach = gmin + self.cutoff / self.alpha
@@ -151,23 +162,29 @@ class SmoothHausdorff:
         grid = self._grid(sources, s_weights, estimate)
         order = grid.locality_order(queries)
         ordered = np.ascontiguousarray(queries[order])
-        nearest = np.empty(len(queries))
-        nearest[order] = cellgrid.nearest_distance(ordered, grid.xyz, grid.origin, grid.cell,
-                                                   grid.shape, grid.start)
+        nearest, index = np.empty(len(queries)), np.empty(len(queries), dtype=np.int64)
+        nearest[order], index[order] = cellgrid.nearest_source(
+            ordered, grid.xyz, grid.origin, grid.cell, grid.shape, grid.start)
         gmin = self._g(nearest)
         radius = self._cutoff_radius(gmin)
-        Z, V = np.empty(len(queries)), np.empty((len(queries), 3))
-        Z[order], V[order] = kernels.soft_values(
+        Z, V, P = np.empty(len(queries)), np.empty((len(queries), 3)), np.empty(len(queries))
+        Z[order], V[order], P[order] = kernels.soft_values(
             ordered, grid.xyz, grid.weights, grid.origin, grid.cell,
-            grid.shape, grid.start, gmin[order], radius[order], self.alpha, self.rational,
-            query_gradient)
+            grid.shape, grid.start, gmin[order], radius[order], self.alpha, *self._cut,
+            self.rational, query_gradient)
+        # the shift gmin = g(|q - x_n|) moves the taper: ds/dgmin = -P / Z, dgmin/dq = dg
+        offset = queries - grid.xyz[:, index].T
+        slope = 1.0 / (1.0 + nearest) if self.rational else np.ones_like(nearest)
+        dg = (slope / np.maximum(nearest, 1e-300))[:, None] * offset
+        if query_gradient:
+            V -= P[:, None] * dg
         total = float(s_weights.sum())
         d, mu = self._distance(gmin - np.log(Z / total) / self.alpha)
         q_total = comm.allreduce(float(q_weights.sum()), MPI.SUM)
         A = comm.allreduce(float(np.sum(q_weights * d**self.beta)), MPI.SUM)
         farthest = comm.allreduce(float(nearest.max(initial=0.0)), MPI.MAX)
-        return _Direction((A / q_total) ** (1.0 / self.beta), d, mu, Z, V, gmin, radius, grid,
-                          q_total, total, farthest)
+        return _Direction((A / q_total) ** (1.0 / self.beta), d, mu, Z, V, P, dg, index, gmin,
+                          radius, grid, q_total, total, farthest)
 
     def soft_distance(self, points: np.ndarray, cloud: PointCloud) -> np.ndarray:
         """The soft distance d_cloud(x) of (2.9) for each of ``points`` (serial)."""
@@ -250,14 +267,16 @@ class SmoothHausdorff:
         acc = kernels.soft_source_gradient(np.ascontiguousarray(queries[order]), grid.xyz,
                                            grid.origin, grid.cell, grid.shape, grid.start,
                                            d.gmin[order], d.radius[order], self.alpha,
-                                           self.rational, coef[order], nchunks)
+                                           *self._cut, self.rational, coef[order], nchunks)
+        acc[:, :3] *= -grid.weights[:, None]
+        # the shift: each query's nearest source x_n moves its gmin, dgmin/dx_n = -dg
+        np.add.at(acc[:, :3], d.nearest, (coef * d.P)[:, None] * d.dg)
         full = np.empty_like(acc)
         full[grid.order] = acc  # back to the gathered order
         comm.Allreduce(MPI.IN_PLACE, full, op=MPI.SUM)
         sum_coef = comm.allreduce(float(np.sum(c * d.mu)), MPI.SUM)
         mine = full[s_offset:s_offset + len(s_weights)]
-        return (-s_weights[:, None] * mine[:, :3],
-                -(1.0 / self.alpha) * (mine[:, 3] - sum_coef / d.s_total))
+        return mine[:, :3], -(1.0 / self.alpha) * (mine[:, 3] - sum_coef / d.s_total)
 
 
 def exact_hausdorff(a: PointCloud, b: PointCloud, comm: MPI.Comm = MPI.COMM_SELF) -> float:
