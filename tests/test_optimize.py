@@ -348,6 +348,19 @@ def _reproduce_module():
     return module
 
 
+def test_reproduce_runs_the_restarts_only_when_asked():
+    """The 3D restarts from a section's optimum are measurements: not in the default set,
+    in it with --all, and each can be named."""
+    reproduce = _reproduce_module()
+    extras = {"beam_wave_from_2d", "disk_cone_from_axi", "cylinder_flare_from_axi"}
+    every = {scene.name for scene in reproduce.SCENES}
+    assert {scene.name for scene in reproduce.SCENES if scene.extra} == extras
+    assert {scene.name for scene in reproduce.selected(set(), False)} == every - extras
+    assert {scene.name for scene in reproduce.selected(set(), True)} == every
+    assert [s.name for s in reproduce.selected({"disk_cone_from_axi"}, False)] == [
+        "disk_cone_from_axi"]
+
+
 def test_reproduce_compare_flags_a_difference_beyond_the_tolerance(tmp_path):
     """--compare: two reproductions that differ by 1 % agree at rtol 5 % and not at 0.5 %; a
     different problem size never agrees; a missing run is reported, not skipped."""
