@@ -36,12 +36,12 @@ from numba.extending import intrinsic
 from .cellgrid import _cell_range, _column
 
 # Default cutoff c: a term below exp(-c) of the nearest is dropped, and terms fade out
-# smoothly (twice differentiable) over the TAPER e-folds before it, so rho_H with the cutoff
-# is one smooth function, differentiated exactly (the fade-out moves with each query's
+# smoothly (continuously differentiable) over the TAPER e-folds before it, so rho_H with the
+# cutoff is one C^1 function, differentiated exactly (the fade-out moves with each query's
 # nearest source, and that shift is in the gradient).  Measured on scene 1's beam at 50k
 # DOFs, alpha 200, against no cutoff: c = 20: rho_H - (rho_H(B, B))/2 within 1.7e-9, its
-# gradient 2.3e-8; c = 14: 6.7e-7 and 9.0e-6 with a quarter fewer pairs; c = 10:
-# 2.7e-5, 4.8e-4; c = 6: 6.5e-4, 2.5e-2 (docs/PERFORMANCE.md).
+# gradient 2.4e-8; c = 14: 6.9e-7 and 9.2e-6; c = 10: 2.8e-5, 4.9e-4; c = 6: 6.5e-4,
+# 2.6e-2 (docs/PERFORMANCE.md).
 CUTOFF = 14.0
 TAPER = 2.0
 # Exponents are clamped at 100: a term below exp(-100) of the largest changes nothing,
@@ -131,7 +131,7 @@ def _taper(u, cut, inv_width):
     """The smooth cutoff S(u) and -dS/du: S = 1 up to u = cut - width, 0 from u = cut, the
     cubic smoothstep between: continuously differentiable with a bounded second derivative,
     so J stays C^1 with a Lipschitz gradient (what a Taylor test's rate 2 needs); branch-free
-    so the pair loops still vectorise (the quintic, C^2, cost 8 % more per pair)."""
+    so the pair loops still vectorise (the quintic, C^2, cost 2-6 % more per pair)."""
     t = min(max((cut - u) * inv_width, 0.0), 1.0)
     s = t * t * (3.0 - 2.0 * t)
     ds = 6.0 * t * (1.0 - t) * inv_width  # -dS/du
