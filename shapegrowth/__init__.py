@@ -37,7 +37,7 @@ _API = {
     "taylor_test": ("shapegrowth.optim.verification", "taylor_test"),
     "Driver": ("shapegrowth.optim.driver", "Driver"),
     "DriverSettings": ("shapegrowth.optim.driver", "DriverSettings"),
-    "Callback": ("shapegrowth.optim.driver", "Callback"),
+    "Callback": ("shapegrowth.optim.interface", "Callback"),
     "Status": ("shapegrowth.status", "Status"),
     "Outcome": ("shapegrowth.status", "Outcome"),
     "RunSummary": ("shapegrowth.io.summary", "RunSummary"),
@@ -99,7 +99,8 @@ if TYPE_CHECKING:
     from .config import load as load_config
     from .io.plotting import draw, surface
     from .io.summary import RunSummary
-    from .optim.driver import Callback, Driver, DriverSettings
+    from .optim.driver import Driver, DriverSettings
+    from .optim.interface import Callback
     from .optim.lift import Lifted, lift
     from .optim.objective import Objective
     from .optim.problem import ReducedFunctional

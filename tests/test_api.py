@@ -15,7 +15,7 @@ from mpi4py import MPI
 import shapegrowth as sg
 from shapegrowth.config import BoundaryConfig, GeometryConfig, MeshConfig, ModelConfig
 from shapegrowth.optim.callbacks import ProgressLog
-from shapegrowth.optim.driver import Answer, Record, Step
+from shapegrowth.optim.interface import Answer, Record, Step
 from shapegrowth.optim.objective import ObjectiveValue
 from shapegrowth.optim.problem import Evaluation
 from shapegrowth.physics.state import SolveReport

@@ -422,7 +422,7 @@ def test_the_state_tolerance_follows_the_optimisers_progress():
     # the debiased J tends to 0: progress relative to the stopping test's scale rho_H(T, T)
     assert cb.tolerance(2e-5, 1e-5) == 1e-6
     assert cb.tolerance(2e-5 + 1e-9, 2e-5, scale=1e-2) == pytest.approx(1e-10, rel=1e-5)
-    from shapegrowth.optim.driver import Record, Step
+    from shapegrowth.optim.interface import Record, Step
 
     def step(k: int, objective: float) -> Step:
         r = Record(k, objective, objective, 0.0, 0.0, 1.0, 4, 0.0, 100.0, 0.0)

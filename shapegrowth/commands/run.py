@@ -29,7 +29,8 @@ from ..io.figures3d import write_shape3d_png
 from ..io.plotting import write_frame_png, write_shape_png
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
 from ..optim.callbacks import FromRestEvery, ProgressLog, ProgressTolerance, RetryFromRest
-from ..optim.driver import Driver, DriverResult, DriverSettings, Record
+from ..optim.driver import Driver, DriverSettings
+from ..optim.interface import DriverResult, Record
 from ..optim.levels import level_config
 from ..optim.lift import check_liftable, lift, lift_growth, verification_model
 from ..optim.problem import ReducedFunctional, StateSolveError

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from ..optim.driver import Callback, Step
+from ..optim.interface import Callback, Step
 from ..optim.refined import verify
 from ..physics.model import ForwardModel
 from ..timing import Timer

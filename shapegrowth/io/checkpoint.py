@@ -21,7 +21,7 @@ from typing import Protocol
 import numpy as np
 from mpi4py import MPI
 
-from ..optim.driver import Answer, Callback, DriverResult, GlobalVector, Record, Step
+from ..optim.interface import Answer, Callback, DriverResult, GlobalVector, Record, Step
 from ..timing import Timer
 
 log = logging.getLogger(__name__)

@@ -10,7 +10,7 @@ from typing import Protocol
 
 import numpy as np
 
-from .driver import Callback, DesignProblem, Record, Step
+from .interface import Callback, DesignProblem, Record, Step
 from .problem import Evaluation, StateSolveError
 
 log = logging.getLogger(__name__)

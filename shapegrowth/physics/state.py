@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 
 import dolfinx.fem
 import dolfinx.fem.petsc
-import dolfinx.la
 import numpy as np
 import ufl
 from mpi4py import MPI
@@ -45,6 +44,7 @@ from .geometry import Domain
 from .growth import Growth
 from .kinematics import Kinematics
 from .material import MooneyRivlin, deformation_gradient
+from .newton import SNES_REASONS, rigid_body_modes, solver_options
 from .options import SolverOptions
 from .transfer import interpolate_between_meshes
 
@@ -67,32 +67,6 @@ class SolveReport:
     reached: float = 1.0  # fraction of the requested growth change in equilibrium
     seconds: float = 0.0
     history: list[tuple[float, int]] = field(default_factory=list)  # (t, iterations)
-
-
-def solver_options(cfg: Config, force_scale: float) -> dict[str, object]:
-    """PETSc options of the state solver (without a prefix).
-
-    The absolute tolerance is ``solver.atol`` times the body's force scale, so that
-    it means the same for a beam of volume 0.002 and a square of area 16: thin bodies
-    are soft in bending (a residual of 1e-10 left displacement errors of 1e-6 on the
-    beam), while the residual of a body at rest is round-off, ~1e-16 of that scale."""
-    s = cfg.solver
-    opts: dict[str, object] = {
-        "snes_type": "newtonls",
-        "snes_linesearch_type": s.line_search,
-        "snes_max_it": s.max_newton_iterations,
-        "snes_rtol": s.rtol,
-        "snes_atol": s.atol * force_scale,
-        "snes_stol": s.stol,
-        "snes_error_if_not_converged": False,
-    }
-    if s.linear == "mumps":
-        opts.update({"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"})
-    else:
-        # The prestressed tangent is indefinite early on: CG fails, GMRES + GAMG works.
-        opts.update({"ksp_type": "gmres", "ksp_rtol": 1e-10, "ksp_max_it": 2000,
-                     "ksp_gmres_restart": 200, "pc_type": "gamg"})
-    return opts
 
 
 class StateProblem:
@@ -299,11 +273,11 @@ class StateProblem:
         ok = self.domain.mesh.comm.allreduce(
             bool(reason > 0 and np.isfinite(self.u.x.array).all()), MPI.LAND)
         if not ok:
-            return False, its, _SNES_REASONS.get(reason, str(reason))
+            return False, its, SNES_REASONS.get(reason, str(reason))
         inverted = self.inverted_points()
         if inverted:
             return False, its, f"det F <= 0 at {inverted} sample points"
-        return True, its, _SNES_REASONS[reason]
+        return True, its, SNES_REASONS[reason]
 
     # ---- continuation ----------------------------------------------------------------------
     # The state's lifecycle: at rest (after construction or ``reset``), in equilibrium with
@@ -414,38 +388,3 @@ class StateProblem:
         report.reached = t
         report.seconds = time.perf_counter() - tic
         return report
-
-
-def rigid_body_modes(V) -> PETSc.NullSpace:
-    """Translations and infinitesimal rotations, the near-nullspace for GAMG."""
-    gdim = V.mesh.geometry.dim
-    index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
-    n = index_map.size_local
-    x = V.tabulate_dof_coordinates()[:n]
-    modes = np.zeros((6 if gdim == 3 else 3, n, bs))
-    for i in range(gdim):
-        modes[i, :, i] = 1.0
-    if gdim == 3:
-        modes[3, :, 0], modes[3, :, 1] = -x[:, 1], x[:, 0]
-        modes[4, :, 0], modes[4, :, 2] = x[:, 2], -x[:, 0]
-        modes[5, :, 2], modes[5, :, 1] = x[:, 1], -x[:, 2]
-    else:
-        modes[2, :, 0], modes[2, :, 1] = -x[:, 1], x[:, 0]
-    vecs: list[PETSc.Vec] = []
-    for mode in modes:  # Gram-Schmidt with PETSc's (global) products: dolfinx.la's
-        vec = dolfinx.la.create_petsc_vector(index_map, bs)  # orthonormalize takes
-        vec.array[:] = mode.ravel()  # PETSc vectors in 0.5.2, its own in 0.9
-        for other in vecs:
-            vec.axpy(-vec.dot(other), other)
-        vec.normalize()
-        vecs.append(vec)
-    return PETSc.NullSpace().create(vectors=vecs)
-
-
-_SNES_REASONS = {  # PETSc's SNESConvergedReason
-    2: "converged (atol)", 3: "converged (rtol)", 4: "converged (step)", 5: "converged (its)",
-    -1: "function domain error", -2: "too many function evaluations",
-    -3: "linear solve failed", -4: "NaN residual", -5: "maximum Newton iterations",
-    -6: "line search failed", -7: "inner solve failed", -8: "local minimum",
-    -9: "diverged (dtol)", -10: "Jacobian domain error", -11: "trust region collapsed",
-}
