@@ -257,6 +257,23 @@ def _trend(history: Path, window: int = 50) -> str:
             f"({100 * drop:.1f} %, {verdict})")
 
 
+def _time_taken(rows: list[tuple[Scene, RunSummary | None]]) -> list[str]:
+    """The reproduction's time: the wall times of its finished runs added up, the default
+    set apart from the extra measurements (a resumed run counts its time since its last
+    resume)."""
+    done = [(scene, s) for scene, s in rows if s is not None]
+    if not done:
+        return []
+    default = sum(s.wall_time_s for scene, s in done if not scene.extra)
+    extra = [s.wall_time_s for scene, s in done if scene.extra]
+    text = (f"The {sum(not scene.extra for scene, _ in done)} runs of this reproduction took "
+            f"**{default / 60:.0f} min** together on 2 cores (their wall times added up, "
+            "verification and lift included)")
+    text += (f"; the {len(extra)} extra measurements (`--all`) another {sum(extra) / 60:.0f} "
+             "min." if extra else ".")
+    return [text, ""]
+
+
 def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
                      images: Path) -> str:
     where = out.relative_to(ROOT) if out.is_relative_to(ROOT) else out
@@ -273,6 +290,7 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
              "optimiser iterations amplify that, so two reproductions are compared to "
              f"{100 * RTOL:g} % of each value, not digit by digit (`make reproduce-compare`, "
              "[REPRODUCIBILITY.md](REPRODUCIBILITY.md)).", "",
+             *_time_taken(rows),
              "| scene | run | model | **verified** | how verified | self-reported | state "
              "DOFs | design DOFs | iterations | wall s (verification) | status | paper |",
              "|---|---|---|---:|---|---:|---:|---:|---:|---:|---|---|"]
