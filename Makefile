@@ -23,7 +23,7 @@ help:
 	@echo "make test-debian13 - the same suite in a Debian 13 root (dolfinx 0.9; root, debootstrap)"
 	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
 	@echo "make bench  - the performance benchmark (results/bench/bench.json, minutes)"
-	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (about 70 min on 2 cores)"
+	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (about 50 min on 2 cores)"
 	@echo "make reproduce-compare OTHER=DIR - results/reproduce against a second reproduction's run folders"
 	@echo "make reachable - targets a known growth produces, found again (docs/REACHABLE.md)"
 	@echo "make setup  - Debian packages and .venv only"

@@ -11,9 +11,9 @@ Every run of SCENES (the 3D configs, the reduced models of scenes 1, 2, 4 and 5 
 OUT/NAME, resumed from its checkpoint when one is there and skipped when its summary.json is
 final, so an interrupted reproduction continues where it stopped.  The three 3D runs
 restarted from a section's optimum are measurements of the reduced models (how far the 3D
-body leaves its section), not the scenes' results, and took 42 of the 110 minutes of the
-last reproduction: they run with ``--all`` or ``--only NAME``, and a finished one is
-reported either way.  The table and the
+body leaves its section), not the scenes' results, and took 42 minutes more in the
+reproduction that ran them (the default set: 47 minutes on 2 cores): they run with
+``--all`` or ``--only NAME``, and a finished one is reported either way.  The table and the
 figures (each run's history.png and shape.png, copied to docs/img/results/) are then made
 from the summaries alone: every number in RESULTS.md comes from a run folder.  The table
 leads with each run's verified shape error (its best growth grown from rest on its mesh
@@ -107,25 +107,31 @@ WHY: dict[int, str] = {
        "lifted onto the 3D strip it leaves plane stress (the departure in the table): the "
        "filter of half the thickness halves the departure, designing lambda_1 alone does not "
        "change it (TRADEOFFS, 'Filter lengths and design sets, judged verified'); what is "
-       "left is the strip's width, which the section frees and the clamp holds. The 3D run's "
-       "verified number spreads widely from run to run (TRADEOFFS, 'Scene 2: which ring', "
-       "'Reduced models').",
+       "left is the strip's width, which the section frees and the clamp holds. The 3D run "
+       "lands beside the section's lift, its self-reported number a tenth of its verified "
+       "one: it fits its own coarse mesh, and a 3D run on the mesh it verifies on is what "
+       "would remove that (TRADEOFFS, 'What 1 % would take').",
     3: "A helix has no section model; the 3D run's self-reported number is a fraction of its "
        "verified one: the thin tube's optimum sits in its own mesh's discretisation error "
        "(13 P2 elements round the tube at h 0.5; 6 at h 1.0 were 10 points stiffer than their "
-       "refinement). Removing it takes the next mesh, h 0.25: 4x the DOFs, about an hour a "
-       "run on 2 cores by the measured scaling (TRADEOFFS, 'Scenes 3 and 5', 'What 1 % "
+       "refinement), and two reproductions of this config ended at nearly the same "
+       "self-reported number with verified numbers far apart (TRADEOFFS, 'Two "
+       "reproductions'). Removing it takes the next mesh, h 0.25: 4x the DOFs, about an hour "
+       "a run on 2 cores by the measured scaling (TRADEOFFS, 'Scenes 3 and 5', 'What 1 % "
        "would take').",
     4: "The section reaches its target, but the 3D disk grown from rest buckles out of axial "
        "symmetry (the departure in the table): an equilibrium the section cannot reach, and "
        "no filter helps (each sends the growth from rest onto another equilibrium); the 3D "
        "run's verified number is several times its self-reported one (TRADEOFFS, 'Reduced "
        "models', 'A second finding', 'Filter lengths and design sets, judged verified').",
-    5: "The 3D shell's own run stalls above 1 % (rho_H stalled in the trend); the section "
-       "filtered over its wall lifts onto the 3D shell, which the unfiltered section does not "
-       "(a limit point before its growth is reached), and is the better run (configs/"
-       "cylinder_flare_axi.yaml; TRADEOFFS, 'Filter lengths and design sets, judged "
-       "verified', 'Reduced models').",
+    5: "The section filtered over four wall thicknesses is the one whose growth the 3D shell "
+       "follows (the departure in the table; unfiltered, the 3D shell meets a limit point "
+       "before its growth is reached), and the 3D shell grown from it lands closer to the "
+       "target than the section itself does: what limits the lift is the section's own "
+       "optimum (its optimiser stops on its tolerance). Optimisers that fit the section "
+       "better (L-BFGS on S, a sharper alpha) make the 3D shell leave it more and lift no "
+       "lower; the 3D shell's own run stops above both (TRADEOFFS, 'Filter lengths and "
+       "design sets, judged verified', 'What 1 % would take').",
 }
 
 
@@ -297,13 +303,20 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
     for scene, s in rows:
         head = f"| {scene.number} | {scene.name} | {scene.model} |"
         if s is None:
-            lines.append(f"{head} - | not run | - | - | - | - | - | - | {scene.paper} |")
+            if not scene.extra:  # an extra measurement not made is left out (below)
+                lines.append(f"{head} - | not run | - | - | - | - | - | - | {scene.paper} |")
             continue
         ranks = "" if s.mpi_size == 2 else f", {s.mpi_size} ranks"
         lines.append(
             f"{head} **{_pc(verified_error(s))}** | {_how(s)} | {_pc(s.relative_error)} | "
             f"{s.dofs.state} | {s.dofs.design} | {s.iterations} | {_seconds(s)}{ranks} | "
             f"{s.status} | {scene.paper} |")
+    missing = [scene.name for scene, s in rows if scene.extra and s is None]
+    if missing:
+        lines += ["", f"Not in this reproduction: {', '.join(missing)} (3D runs restarted "
+                      "from a section's optimum, measurements of the reduced models: "
+                      "`scripts/reproduce.py --all`; their last measured numbers are in "
+                      "docs/TRADEOFFS.md, 'The reproduction, with the departure')."]
     summaries = {scene.name: s for scene, s in rows}
     fixed, free = summaries.get("square_circle_fixed"), summaries.get("square_circle_free")
     if fixed and free and fixed.rho_H_final and free.rho_H_final:

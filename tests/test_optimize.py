@@ -329,6 +329,9 @@ def test_reproduce_writes_results_from_the_run_folders(tmp_path):
     assert float(row[1]) == pytest.approx(100 * free["verified"]["relative"], abs=0.006)
     assert int(row[2]) == free["verified"]["dofs"] > free["dofs"]["state"]
     assert "not run" in text  # the others
+    # the extra measurements not made are named, not tabled
+    assert "Not in this reproduction: beam_wave_from_2d" in text
+    assert "| beam_wave_from_2d |" not in text
     took = re.search(r"The 2 runs of this reproduction took \*\*(\d+) min\*\*", text)
     fixed = json.loads((tmp_path / "runs" / "square_circle_fixed" / "summary.json").read_text())
     assert took and int(took[1]) == round((free["wall_time_s"] + fixed["wall_time_s"]) / 60)
