@@ -19,6 +19,9 @@ PACKAGES="python3-dolfinx-real python3-gmsh python3-nlopt python3-h5py python3-v
   python3-yaml python3-matplotlib python3-scipy python3-pytest python3-nbclient
   python3-nbformat python3-ipykernel python3-numba libopenblas0-pthread openmpi-bin
   python3-setuptools make ca-certificates"
+# one line: the list goes into a `bash -c` string below, where a newline would end apt-get's
+# command and run the next line's package names as commands
+PACKAGES=$(echo $PACKAGES)
 
 skip() { echo "test-debian13: skipped: $*"; exit 0; }
 
