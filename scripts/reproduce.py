@@ -267,14 +267,12 @@ def _time_taken(rows: list[tuple[Scene, RunSummary | None]]) -> list[str]:
     """The reproduction's time: the wall times of its finished runs added up, the default
     set apart from the extra measurements (a resumed run counts its time since its last
     resume)."""
-    done = [(scene, s) for scene, s in rows if s is not None]
-    if not done:
+    default = [s.wall_time_s for scene, s in rows if s is not None and not scene.extra]
+    extra = [s.wall_time_s for scene, s in rows if s is not None and scene.extra]
+    if not default and not extra:
         return []
-    default = sum(s.wall_time_s for scene, s in done if not scene.extra)
-    extra = [s.wall_time_s for scene, s in done if scene.extra]
-    text = (f"The {sum(not scene.extra for scene, _ in done)} runs of this reproduction took "
-            f"**{default / 60:.0f} min** together on 2 cores (their wall times added up, "
-            "verification and lift included)")
+    text = (f"The {len(default)} runs of this reproduction took **{sum(default) / 60:.0f} "
+            "min** together (their wall times added up, verification and lift included)")
     text += (f"; the {len(extra)} extra measurements (`--all`) another {sum(extra) / 60:.0f} "
              "min." if extra else ".")
     return [text, ""]
@@ -300,10 +298,13 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
              "| scene | run | model | **verified** | how verified | self-reported | state "
              "DOFs | design DOFs | iterations | wall s (verification) | status | paper |",
              "|---|---|---|---:|---|---:|---:|---:|---:|---:|---|---|"]
+    missing = []  # the extra measurements not made: named below the table, not tabled
     for scene, s in rows:
         head = f"| {scene.number} | {scene.name} | {scene.model} |"
         if s is None:
-            if not scene.extra:  # an extra measurement not made is left out (below)
+            if scene.extra:
+                missing.append(scene.name)
+            else:
                 lines.append(f"{head} - | not run | - | - | - | - | - | - | {scene.paper} |")
             continue
         ranks = "" if s.mpi_size == 2 else f", {s.mpi_size} ranks"
@@ -311,7 +312,6 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
             f"{head} **{_pc(verified_error(s))}** | {_how(s)} | {_pc(s.relative_error)} | "
             f"{s.dofs.state} | {s.dofs.design} | {s.iterations} | {_seconds(s)}{ranks} | "
             f"{s.status} | {scene.paper} |")
-    missing = [scene.name for scene, s in rows if scene.extra and s is None]
     if missing:
         lines += ["", f"Not in this reproduction: {', '.join(missing)} (3D runs restarted "
                       "from a section's optimum, measurements of the reduced models: "
