@@ -73,6 +73,8 @@ def test_an_alpha_schedule_is_a_list(tmp_path):
      "wider than the cutoff"),
     ("objective: {hausdorff: {form: unbiased}}", "objective.hausdorff.form",
      "allowed: debiased, paper"),
+    ("objective: {hausdorff: {phi: rational, precision: float32}}",
+     "objective.hausdorff.precision", "needs phi: exp"),
     ("optimizer: {algorithm: bfgs}", "optimizer.algorithm", "allowed: mma, slsqp, lbfgs"),
     ("target: {map: [x1, x2, x3], weights: area}", "target.weights",
      "allowed: volume, pushforward"),

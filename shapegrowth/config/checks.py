@@ -109,6 +109,9 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     if hausdorff.taper > hausdorff.cutoff:
         errors.append(f"objective.hausdorff.taper: {hausdorff.taper} is wider than the cutoff "
                       f"{hausdorff.cutoff}; give at most the cutoff (default 2)")
+    if hausdorff.precision == "float32" and (hausdorff.phi != "exp" or hausdorff.cutoff > 60):
+        errors.append("objective.hausdorff.precision: float32 needs phi: exp and a cutoff of at "
+                      "most 60 (its exponents stop at exp(-80)); use float64 here")
     _check_levels(cfg, errors)
     if cfg.solver.continuation.min_step > cfg.solver.continuation.initial_step:
         errors.append("solver.continuation.min_step: must not exceed initial_step")

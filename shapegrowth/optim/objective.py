@@ -46,7 +46,7 @@ class Objective:
         self.target_size = self.target.extent(self.comm)  # of the sample points, as rho_H sees it
         self.divergence = ShapeDivergence(
             SmoothHausdorff(alpha=h.alphas[0], beta=h.beta, gamma=h.gamma, phi=h.phi,
-                            cutoff=h.cutoff, taper=h.taper), h.form)
+                            cutoff=h.cutoff, taper=h.taper, precision=h.precision), h.form)
         ratio = state.volume_ratio() if cfg.section.reduced else None  # None: det F
         self._deformed = self.cloud.deformed_factory(state.u, ratio)
         self._pullback, self._fill = self.cloud.pullback_form(state.u, ratio)

@@ -28,10 +28,15 @@ class SourceGrid:
     cell: float
     shape: np.ndarray  # (3,) int64
     start: np.ndarray  # (ncells + 1,) int64
+    # (3, m) float32: each sorted source's offset from its own cell's lowest corner, for the
+    # float32 pair loops (kernels32.py): offsets of at most a cell keep 7 digits of a distance
+    local32: np.ndarray | None = None
 
     @classmethod
-    def build(cls, points: np.ndarray, weights: np.ndarray, cell: float | None) -> SourceGrid:
-        """``cell=None``: one cell holding everything (brute force)."""
+    def build(cls, points: np.ndarray, weights: np.ndarray, cell: float | None,
+              local32: bool = False) -> SourceGrid:
+        """``cell=None``: one cell holding everything (brute force); ``local32``: keep the
+        float32 offsets of the sources from their cells' corners too."""
         pts = as3(points)
         lo = pts.min(axis=0) if len(pts) else np.zeros(3)
         hi = pts.max(axis=0) if len(pts) else np.zeros(3)
@@ -40,11 +45,17 @@ class SourceGrid:
         shape = np.maximum(np.ceil((hi - lo) / cell).astype(np.int64), 1)
         idx = np.minimum(((pts - lo) / cell).astype(np.int64), shape - 1)
         flat = (idx[:, 0] * shape[1] + idx[:, 1]) * shape[2] + idx[:, 2]
-        order = np.argsort(flat, kind="stable")
+        # within a cell by position: the order (and so every float32 sum) does not depend on
+        # how the points were numbered or split over ranks
+        order = np.lexsort((pts[:, 2], pts[:, 1], pts[:, 0], flat))
         counts = np.bincount(flat, minlength=int(np.prod(shape)))
         start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        local = None
+        if local32:
+            local = np.ascontiguousarray((pts[order] - (lo + idx[order] * cell)).T,
+                                         dtype=np.float32)
         return cls(np.ascontiguousarray(pts[order].T), np.ascontiguousarray(weights[order]),
-                   order, lo, float(cell), shape, start)
+                   order, lo, float(cell), shape, start, local)
 
     @property
     def ncells(self) -> int:
@@ -104,18 +115,28 @@ def _cell_range(q, radius, origin, cell, shape, k):
 
 
 @numba.njit(cache=True, inline="always")
-def _column(qx, qy, qz, radius, ix, iy, origin, cell, shape, start):
-    """Source range of column (ix, iy) within the ball of the query: empty when the
-    column's box is farther than the radius, else only the cells the ball reaches."""
+def _column_cells(qx, qy, qz, radius, ix, iy, origin, cell, shape):
+    """Cells z0..z1 of column (ix, iy) that the ball of the query reaches, and the flat
+    index of the column's first cell; z1 < z0 when the column's box is beyond the radius."""
     bx = max(origin[0] + ix * cell - qx, 0.0, qx - origin[0] - (ix + 1) * cell)
     by = max(origin[1] + iy * cell - qy, 0.0, qy - origin[1] - (iy + 1) * cell)
     rem = radius * radius - bx * bx - by * by
+    c0 = (ix * shape[1] + iy) * shape[2]
     if rem < 0.0:
-        return 0, 0
+        return c0, 0, -1
     h = math.sqrt(rem)
     z0 = min(max(int(math.floor((qz - h - origin[2]) / cell)), 0), shape[2] - 1)
     z1 = min(max(int(math.floor((qz + h - origin[2]) / cell)), 0), shape[2] - 1)
-    c0 = (ix * shape[1] + iy) * shape[2]
+    return c0, z0, z1
+
+
+@numba.njit(cache=True, inline="always")
+def _column(qx, qy, qz, radius, ix, iy, origin, cell, shape, start):
+    """Source range of column (ix, iy) within the ball of the query: empty when the
+    column's box is farther than the radius, else only the cells the ball reaches."""
+    c0, z0, z1 = _column_cells(qx, qy, qz, radius, ix, iy, origin, cell, shape)
+    if z1 < z0:
+        return 0, 0
     return start[c0 + z0], start[c0 + z1 + 1]
 
 

@@ -1,0 +1,243 @@
+"""The pair loops of phi = exp in float32 (``objective.hausdorff.precision: float32``).
+
+The same sums as kernels.py (Z, V, P per query; the source gradients A, B), with each
+pair's distance, exponential and taper in float32: a 512-bit vector holds 16 lanes
+instead of 8, and exp needs a polynomial of degree 7 instead of 12.  Precision is kept
+where it is lost otherwise:
+
+- coordinates: a source is stored as its offset from its own grid cell's corner
+  (``SourceGrid.local32``) and the query's offset from that corner is formed in float64,
+  so the differences q - x are of numbers no larger than a cell (about 0.05 of the body
+  at the bench's case) and keep float32's 7 digits of the distance itself;
+- sums: each cell's terms are summed in float32 lanes and the cells' sums in float64;
+  the source gradients in float32 per block of queries and the blocks in float64
+  (float64 buffers made the scatter loop no faster than float64's: 0.37 -> 0.34 s against
+  0.16 s at the bench's case, for 5e-6 of the largest gradient instead of 8e-7).  Sources
+  are ordered by position within a cell (cellgrid.py), so the sums do not depend on how
+  the points are numbered;
+- range: source weights are divided by their largest, the query coefficients of the
+  source gradients by theirs (the callers multiply back), and exponents are clamped at
+  80 (exp(-80) is a normal float32; the taper has dropped such terms at any cutoff the
+  float32 path accepts, see ``SmoothHausdorff``).
+
+Measured against float64 on the bench's 50k-DOF state (38 448 + 38 448 points, alpha
+200): see docs/PERFORMANCE.md, "float32 pair sums".
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from llvmlite import ir
+from numba.core import types
+from numba.extending import intrinsic
+
+from .cellgrid import _cell_range, _column_cells
+from .kernels import _VECTOR
+
+_F = np.float32
+_LOG2E = _F(1.4426950408889634)
+_LN2_HI = _F(0.693359375)  # ln 2 = _LN2_HI + _LN2_LO, _LN2_HI with 9 bits: n * _LN2_HI exact
+_LN2_LO = _F(-2.12194440e-4)
+_ZERO, _HALF, _ONE, _TWO, _THREE, _SIX = _F(0), _F(0.5), _F(1), _F(2), _F(3), _F(6)
+_CLAMP = _F(80.0)
+_TINY = _F(1e-30)
+_C2, _C3, _C4, _C5, _C6, _C7 = (_F(1 / 2), _F(1 / 6), _F(1 / 24), _F(1 / 120), _F(1 / 720),
+                                _F(1 / 5040))
+
+
+@intrinsic
+def _bits_as_float32(typingctx, bits):
+    """Reinterpret an int32 bit pattern as a float32 (vectorises to a no-op)."""
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.FloatType())
+    return types.float32(types.int32), codegen
+
+
+@numba.njit(cache=True, fastmath=_VECTOR, inline="always")
+def _exp32(x):
+    """exp(x) for -80 <= x <= 0 in float32 arithmetic: x = n ln2 + r, |r| <= ln2 / 2, exp(r)
+    by its Taylor polynomial of degree 7 (remainder < 6e-9), 2^n in the exponent bits.
+    np.floor, not math.floor: numba's math.floor returns an int64 and the polynomial then
+    ran in float64 (1.25x over the float64 loop instead of 2.5x)."""
+    n = np.floor(x * _LOG2E + _HALF)
+    r = (x - n * _LN2_HI) - n * _LN2_LO
+    r2 = r * r
+    p = (_ONE + r) + r2 * ((_C2 + r * _C3) + r2 * ((_C4 + r * _C5) + r2 * (_C6 + r * _C7)))
+    return p * _bits_as_float32((np.int32(n) + np.int32(127)) << np.int32(23))
+
+
+@numba.njit(cache=True)
+def exp32_array(x):
+    """_exp32 over a float32 array (for its accuracy test)."""
+    out = np.empty_like(x)
+    for i in range(x.shape[0]):
+        out[i] = _exp32(x[i])
+    return out
+
+
+@numba.njit(cache=True, fastmath=_VECTOR, inline="always")
+def _taper32(u, cut, inv_width):
+    """kernels._taper in float32."""
+    t = min(max((cut - u) * inv_width, _ZERO), _ONE)
+    s = t * t * (_THREE - _TWO * t)
+    ds = _SIX * t * (_ONE - t) * inv_width
+    return s, ds
+
+
+@numba.njit(cache=True, fastmath=_VECTOR)
+def _cell_sums(qx, qy, qz, base, alpha, cut, inv_width, xs, ys, zs, w):
+    """Z, V and P over one cell's sources (offsets from the corner, as the query's)."""
+    z = _ZERO
+    p = _ZERO
+    vx = _ZERO
+    vy = _ZERO
+    vz = _ZERO
+    for j in range(xs.shape[0]):
+        dx = qx - xs[j]
+        dy = qy - ys[j]
+        dz = qz - zs[j]
+        r = np.sqrt(dx * dx + dy * dy + dz * dz)
+        u = min(alpha * (r - base), _CLAMP)
+        e = w[j] * _exp32(-u)
+        s, ds = _taper32(u, cut, inv_width)
+        z += e * s
+        p += e * ds
+        f = e * (s + ds) / max(r, _TINY)
+        vx += f * dx
+        vy += f * dy
+        vz += f * dz
+    return z, vx, vy, vz, p
+
+
+@numba.njit(cache=True, fastmath=_VECTOR)
+def _cell_values(qx, qy, qz, base, alpha, cut, inv_width, xs, ys, zs, w):
+    """Z and P alone over one cell's sources."""
+    z = _ZERO
+    p = _ZERO
+    for j in range(xs.shape[0]):
+        dx = qx - xs[j]
+        dy = qy - ys[j]
+        dz = qz - zs[j]
+        r = np.sqrt(dx * dx + dy * dy + dz * dz)
+        u = min(alpha * (r - base), _CLAMP)
+        e = w[j] * _exp32(-u)
+        s, ds = _taper32(u, cut, inv_width)
+        z += e * s
+        p += e * ds
+    return z, _ZERO, _ZERO, _ZERO, p
+
+
+@numba.njit(cache=True, fastmath=_VECTOR)
+def _cell_scatter(qx, qy, qz, base, alpha, cut, inv_width, a, xs, ys, zs, ax, ay, az, b):
+    """The transpose of _cell_sums over one cell's sources (float32 accumulators)."""
+    for j in range(xs.shape[0]):
+        dx = qx - xs[j]
+        dy = qy - ys[j]
+        dz = qz - zs[j]
+        r = np.sqrt(dx * dx + dy * dy + dz * dz)
+        u = min(alpha * (r - base), _CLAMP)
+        e = a * _exp32(-u)
+        s, ds = _taper32(u, cut, inv_width)
+        f = e * (s + ds) / max(r, _TINY)
+        b[j] += e * s
+        ax[j] += f * dx
+        ay[j] += f * dy
+        az[j] += f * dz
+
+
+@numba.njit(cache=True, inline="always")
+def _corner(origin, cell, ix, iy, iz, q):
+    """The query's offset from the corner of cell (ix, iy, iz), formed in float64."""
+    return (_F(q[0] - (origin[0] + ix * cell)), _F(q[1] - (origin[1] + iy * cell)),
+            _F(q[2] - (origin[2] + iz * cell)))
+
+
+@numba.njit(parallel=True, cache=True)
+def soft_values32(queries, local, w, origin, cell, shape, start, gmin, radius, alpha, cut,
+                  width, with_gradient):
+    """kernels.soft_values for phi = exp in float32 (``local``: SourceGrid.local32, ``w``:
+    the sorted weights divided by their largest, as float32)."""
+    n = queries.shape[0]
+    Z = np.zeros(n)
+    P = np.zeros(n)
+    V = np.zeros((n, 3))
+    xs, ys, zs = local[0], local[1], local[2]
+    a32, c32, iw32 = _F(alpha), _F(cut), _F(1.0 / width)
+    for i in numba.prange(n):
+        q = queries[i]
+        x0, x1 = _cell_range(q, radius[i], origin, cell, shape, 0)
+        y0, y1 = _cell_range(q, radius[i], origin, cell, shape, 1)
+        base = _F(gmin[i])
+        z = 0.0
+        p = 0.0
+        vx = 0.0
+        vy = 0.0
+        vz = 0.0
+        for ix in range(x0, x1 + 1):
+            for iy in range(y0, y1 + 1):
+                c0, z0, z1 = _column_cells(q[0], q[1], q[2], radius[i], ix, iy, origin, cell,
+                                           shape)
+                for iz in range(z0, z1 + 1):
+                    j0, j1 = start[c0 + iz], start[c0 + iz + 1]
+                    if j1 == j0:
+                        continue
+                    qx, qy, qz = _corner(origin, cell, ix, iy, iz, q)
+                    span = (xs[j0:j1], ys[j0:j1], zs[j0:j1], w[j0:j1])
+                    if with_gradient:
+                        dz_, dvx, dvy, dvz, dp = _cell_sums(qx, qy, qz, base, a32, c32, iw32,
+                                                            *span)
+                    else:
+                        dz_, dvx, dvy, dvz, dp = _cell_values(qx, qy, qz, base, a32, c32,
+                                                              iw32, *span)
+                    z += dz_
+                    p += dp
+                    vx += dvx
+                    vy += dvy
+                    vz += dvz
+        Z[i] = z
+        P[i] = p
+        V[i, 0] = vx
+        V[i, 1] = vy
+        V[i, 2] = vz
+    return Z, V, P
+
+
+@numba.njit(parallel=True, cache=True)
+def soft_source_gradient32(queries, local, origin, cell, shape, start, gmin, radius, alpha,
+                           cut, width, coef, nchunks):
+    """kernels.soft_source_gradient for phi = exp in float32 (``coef`` divided by its
+    largest magnitude, as float32)."""
+    n = queries.shape[0]
+    m = local.shape[1]
+    buf = np.zeros((nchunks, 4, m), dtype=np.float32)
+    xs, ys, zs = local[0], local[1], local[2]
+    a32, c32, iw32 = _F(alpha), _F(cut), _F(1.0 / width)
+    size = (n + nchunks - 1) // nchunks
+    for k in numba.prange(nchunks):
+        ax, ay, az, b = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
+        for i in range(k * size, min(n, (k + 1) * size)):
+            a = coef[i]
+            if a == _ZERO:
+                continue
+            q = queries[i]
+            x0, x1 = _cell_range(q, radius[i], origin, cell, shape, 0)
+            y0, y1 = _cell_range(q, radius[i], origin, cell, shape, 1)
+            base = _F(gmin[i])
+            for ix in range(x0, x1 + 1):
+                for iy in range(y0, y1 + 1):
+                    c0, z0, z1 = _column_cells(q[0], q[1], q[2], radius[i], ix, iy, origin,
+                                               cell, shape)
+                    for iz in range(z0, z1 + 1):
+                        j0, j1 = start[c0 + iz], start[c0 + iz + 1]
+                        if j1 == j0:
+                            continue
+                        qx, qy, qz = _corner(origin, cell, ix, iy, iz, q)
+                        _cell_scatter(qx, qy, qz, base, a32, c32, iw32, a, xs[j0:j1],
+                                      ys[j0:j1], zs[j0:j1], ax[j0:j1], ay[j0:j1], az[j0:j1],
+                                      b[j0:j1])
+    total = np.zeros((m, 4))
+    for k in range(nchunks):
+        for c in range(4):
+            total[:, c] += buf[k, c]
+    return total

@@ -1,0 +1,106 @@
+"""rho_H with float32 pair sums (``objective.hausdorff.precision: float32``): its exp, its
+distance from the float64 numbers, exact gradients of what it computes, the debiased
+shape term, and the same numbers under MPI."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import rank_share
+from mpi4py import MPI
+
+from shapegrowth.optim.verification import taylor_test
+from shapegrowth.shape.divergence import ShapeDivergence
+from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
+
+RNG = np.random.default_rng(32)
+
+
+def beams(n=4000, m=3000, gap=0.01):
+    """Two beam-like clouds (1 x 0.1 x 0.02), the second waved and shifted: the shapes of
+    the bench's case, with a grid that prunes."""
+    a = RNG.random((n, 3)) * [1.0, 0.1, 0.02]
+    b = RNG.random((m, 3)) * [1.0, 0.1, 0.02]
+    b[:, 2] += 0.05 * np.sin(2 * np.pi * b[:, 0]) + gap
+    return (PointCloud(a, RNG.uniform(0.5, 1.5, n) / n),
+            PointCloud(b, RNG.uniform(0.5, 1.5, m) / m))
+
+
+def test_exp32_is_float32_accurate():
+    """Degree 7 after range reduction: within a few float32 ulps of exp on [-80, 0]."""
+    from shapegrowth.shape.kernels32 import exp32_array
+
+    x = np.concatenate([-80.0 * RNG.random(100000), np.linspace(-80.0, 0.0, 20001),
+                        [0.0, -0.0, -80.0]]).astype(np.float32)
+    assert np.max(np.abs(exp32_array(x) / np.exp(x.astype(float)) - 1.0)) < 4e-7
+
+
+@pytest.mark.parametrize("truncate", [False, True])
+def test_within_a_millionth_of_float64(truncate):
+    """rho_H and its gradients against the float64 sums (here ~1e-9 and ~1e-6; the bench's
+    50k-DOF state: 3.6e-10 in S, 5e-6 of the largest gradient, docs/PERFORMANCE.md)."""
+    a, b = beams()
+    wide = SmoothHausdorff(alpha=200.0, truncate=truncate)(a, b)
+    single = SmoothHausdorff(alpha=200.0, truncate=truncate, precision="float32")(a, b)
+    assert single.truncated == wide.truncated == truncate
+    assert single.value == pytest.approx(wide.value, rel=1e-7)
+    assert single.value != wide.value  # the float32 path did run
+    assert single.hausdorff == wide.hausdorff  # the nearest sources are searched in float64
+    for s, w in [(single.grad_points, wide.grad_points),
+                 (single.grad_weights, wide.grad_weights)]:
+        assert np.abs(s - w).max() < 1e-5 * np.abs(w).max()
+
+
+def test_taylor_in_float32():
+    """What float32 computes is differentiated exactly: the rate holds for steps whose
+    change of rho_H stands above float32's rounding (from 1e-2 down)."""
+    a, b = beams(3000, 2500)
+    H = SmoothHausdorff(alpha=200.0, gamma=3.0, truncate=True, precision="float32")
+    n = len(a.weights)
+    dp = 0.005 * RNG.standard_normal((n, 3))
+
+    def J(m):
+        return H(PointCloud(a.points + m.reshape(n, 3), a.weights), b, gradient=False).value
+
+    def dJ(m):
+        return H(PointCloud(a.points + m.reshape(n, 3), a.weights), b).grad_points.ravel()
+
+    result = taylor_test(J, dJ, np.zeros(3 * n), dp.ravel(), eps0=1e-2, steps=4)
+    assert result.min_rate > 1.9, result.rates
+
+
+def test_debiased_term_in_float32():
+    """S = rho_H(B, T) - (rho_H(B, B) + rho_H(T, T)) / 2, both self terms in float32 too."""
+    a, b = beams()
+    wide = ShapeDivergence(SmoothHausdorff(alpha=200.0))(a, b)
+    single = ShapeDivergence(SmoothHausdorff(alpha=200.0, precision="float32"))(a, b)
+    assert single.value == pytest.approx(wide.value, rel=1e-5)
+    assert single.body_self == pytest.approx(wide.body_self, rel=1e-6)
+    assert np.abs(single.grad_points - wide.grad_points).max() < 2e-5 * np.abs(
+        wide.grad_points).max()
+
+
+def test_float32_needs_the_exponential_and_a_finite_cutoff():
+    with pytest.raises(ValueError, match="phi 'exp'"):
+        SmoothHausdorff(phi="rational", precision="float32")
+    with pytest.raises(ValueError, match="cutoff of at most 60"):
+        SmoothHausdorff(cutoff=np.inf, precision="float32")
+
+
+@pytest.mark.mpi
+def test_distributed_float32_gives_the_serial_numbers():
+    """The same numbers to float32's rounding: each rank sizes the grid from a sample of its
+    own queries, so the cells, the float32 offsets in them and the source gradients' float32
+    partial sums differ from the serial run's (measured 5e-10 in the value)."""
+    comm = MPI.COMM_WORLD
+    a, b = beams()
+    a = PointCloud(comm.bcast(a.points), comm.bcast(a.weights))
+    b = PointCloud(comm.bcast(b.points), comm.bcast(b.weights))
+    H = SmoothHausdorff(alpha=200.0, precision="float32")
+    serial = H(a, b, MPI.COMM_SELF)
+    a_part, lo, hi = rank_share(a)
+    b_part, _, _ = rank_share(b)
+    dist = H(a_part, b_part, comm)
+    assert dist.value == pytest.approx(serial.value, rel=1e-8)
+    scale = np.abs(serial.grad_points).max()
+    assert np.abs(dist.grad_points - serial.grad_points[lo:hi]).max() < 1e-5 * scale
