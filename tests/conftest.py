@@ -33,6 +33,24 @@ def rank_share(cloud, comm=MPI.COMM_WORLD):
     return PointCloud(cloud.points[lo:hi], cloud.weights[lo:hi]), lo, hi
 
 
+def taylor_in_points(H, a, b, dp, eps0: float):
+    """Taylor test of rho_H = H(a + m, b) in the points of ``a``, along ``dp`` (n, 3)."""
+    import numpy as np
+
+    from shapegrowth.optim.verification import taylor_test
+    from shapegrowth.shape.hausdorff import PointCloud
+
+    n = len(a.weights)
+
+    def J(m):
+        return H(PointCloud(a.points + m.reshape(n, 3), a.weights), b, gradient=False).value
+
+    def dJ(m):
+        return H(PointCloud(a.points + m.reshape(n, 3), a.weights), b).grad_points.ravel()
+
+    return taylor_test(J, dJ, np.zeros(3 * n), dp.ravel(), eps0=eps0, steps=4)
+
+
 def run_cli(*args: str) -> int:
     """Run the CLI in this process (collectively under MPI); returns the exit status."""
     from shapegrowth.commands.cli import main

@@ -6,10 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import rank_share
+from conftest import rank_share, taylor_in_points
 from mpi4py import MPI
 
-from shapegrowth.optim.verification import taylor_test
 from shapegrowth.shape.divergence import ShapeDivergence
 from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
 
@@ -56,16 +55,8 @@ def test_taylor_in_float32():
     change of rho_H stands above float32's rounding (from 1e-2 down)."""
     a, b = beams(3000, 2500)
     H = SmoothHausdorff(alpha=200.0, gamma=3.0, truncate=True, precision="float32")
-    n = len(a.weights)
-    dp = 0.005 * RNG.standard_normal((n, 3))
-
-    def J(m):
-        return H(PointCloud(a.points + m.reshape(n, 3), a.weights), b, gradient=False).value
-
-    def dJ(m):
-        return H(PointCloud(a.points + m.reshape(n, 3), a.weights), b).grad_points.ravel()
-
-    result = taylor_test(J, dJ, np.zeros(3 * n), dp.ravel(), eps0=1e-2, steps=4)
+    dp = 0.005 * RNG.standard_normal((len(a.weights), 3))
+    result = taylor_in_points(H, a, b, dp, eps0=1e-2)
     assert result.min_rate > 1.9, result.rates
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import rank_share
+from conftest import rank_share, taylor_in_points
 from mpi4py import MPI
 
 from shapegrowth.optim.verification import taylor_test
@@ -76,6 +76,29 @@ def test_grid_nearest_distances_are_the_kd_tree_ones(cell):
     near = cellgrid.nearest_distance(queries, grid.xyz, grid.origin, grid.cell, grid.shape,
                                      grid.start)
     assert np.allclose(near, cKDTree(sources).query(queries)[0], rtol=1e-15, atol=0)  # 1 ulp
+
+
+def test_nearest_search_on_its_own_grid_is_the_kd_tree_one():
+    """The search's grid of a few source spacings, each query's ball bounded by the distance
+    to the nearest source of the query before it: in locality order (close bounds) and in
+    random order (loose ones), the KD-tree's distances and a source at that distance."""
+    from scipy.spatial import cKDTree
+
+    from shapegrowth.shape import cellgrid
+
+    rng = np.random.default_rng(8)  # its own: the module's draws stay the other tests'
+    sources = rng.random((20000, 3)) * [1.0, 0.1, 0.02]
+    queries = rng.random((4000, 3)) * [1.4, 0.5, 0.6] - [0.2, 0.2, 0.3]
+    cell = cellgrid.search_cell(sources)
+    assert cell is not None and cell < 0.05
+    grid = cellgrid.SourceGrid.build(sources, np.ones(len(sources)), cell)
+    for q in (queries[grid.locality_order(queries)], queries):
+        q = np.ascontiguousarray(q)
+        near, index = cellgrid.nearest_source(q, grid.xyz, grid.origin, grid.cell, grid.shape,
+                                              grid.start)
+        assert np.allclose(near, cKDTree(sources).query(q)[0], rtol=1e-15, atol=0)
+        found = sources[grid.order[index]]
+        assert np.allclose(np.linalg.norm(q - found, axis=1), near, rtol=1e-15, atol=0)
 
 
 @pytest.mark.parametrize("truncate", [False, True])
@@ -159,16 +182,8 @@ def test_taylor_with_a_short_cutoff(phi):
     a, b = clouds(dim=3)
     H = SmoothHausdorff(alpha=60.0, beta=2.0, gamma=3.0, phi=phi, truncate=True, cutoff=4.0,
                         taper=2.0)
-    n = len(a.weights)
-    dp = 0.05 * RNG.standard_normal((n, 3))
-
-    def J(m):
-        return H(PointCloud(a.points + m.reshape(n, 3), a.weights), b, gradient=False).value
-
-    def dJ(m):
-        return H(PointCloud(a.points + m.reshape(n, 3), a.weights), b).grad_points.ravel()
-
-    result = taylor_test(J, dJ, np.zeros(3 * n), dp.ravel(), eps0=1e-3, steps=4)
+    dp = 0.05 * RNG.standard_normal((len(a.weights), 3))
+    result = taylor_in_points(H, a, b, dp, eps0=1e-3)
     assert result.min_rate > 1.9, result.rates
 
 

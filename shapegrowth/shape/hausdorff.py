@@ -167,30 +167,31 @@ class SmoothHausdorff:
         """Soft distances of this rank's ``queries`` to all ``sources`` and their beta-mean
         over all ranks' queries (D1 or D2 of (2.9)); V only with ``query_gradient``.
 
-        The grid is sized from a sample of nearest distances; the exact nearest distances
-        (the shift g_min, and the exact Hausdorff distance for free) come from the grid.
-        ``itself``: the queries are the sources from this position on (a cloud with itself),
-        so each query's nearest source is itself, at distance 0, and no search is made
-        (0.06 s of 2.1 at the bench's 50k DOFs, with the grid's sizing sample)."""
+        The exact nearest distances (the shift g_min, and the exact Hausdorff distance for
+        free) come from a grid of fine cells (cellgrid.search_cell), the sums from a grid sized
+        by the cutoff radii they give.  ``itself``: the queries are the sources from this
+        position on (a cloud with itself), so each query's nearest source is itself, at
+        distance 0, and no search is made."""
         kernels.one_thread_per_rank()
+        nearest = np.zeros(len(queries))
         if itself is None:
-            near = cellgrid.sample_nearest(queries, sources)
+            search = cellgrid.SourceGrid.build(sources, s_weights, cellgrid.search_cell(sources))
+            lookup = search.locality_order(queries)
+            source_of = np.empty(len(queries), dtype=np.int64)
+            nearest[lookup], found = cellgrid.nearest_source(
+                np.ascontiguousarray(queries[lookup]), search.xyz, search.origin, search.cell,
+                search.shape, search.start)
+            source_of[lookup] = search.order[found]
         else:
-            near = np.zeros(1)
-        grid = self._grid(sources, s_weights, self._cutoff_radius(self._g(near)))
-        order = grid.locality_order(queries)
-        ordered = np.ascontiguousarray(queries[order])
-        nearest, index = np.empty(len(queries)), np.empty(len(queries), dtype=np.int64)
-        if itself is None:
-            nearest[order], index[order] = cellgrid.nearest_source(
-                ordered, grid.xyz, grid.origin, grid.cell, grid.shape, grid.start)
-        else:
-            position = np.empty(len(sources), dtype=np.int64)
-            position[grid.order] = np.arange(len(sources))
-            nearest[:] = 0.0
-            index[:] = position[itself + np.arange(len(queries))]
+            source_of = itself + np.arange(len(queries))
         gmin = self._g(nearest)
         radius = self._cutoff_radius(gmin)
+        grid = self._grid(sources, s_weights, radius)
+        position = np.empty(len(sources), dtype=np.int64)
+        position[grid.order] = np.arange(len(sources))
+        index = position[source_of]  # each query's nearest source in the sums' grid's order
+        order = grid.locality_order(queries)
+        ordered = np.ascontiguousarray(queries[order])
         Z, V, P = np.empty(len(queries)), np.empty((len(queries), 3)), np.empty(len(queries))
         if self.single:
             top = float(grid.weights.max(initial=0.0)) or 1.0  # weights as fractions of it

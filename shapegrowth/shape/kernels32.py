@@ -20,7 +20,9 @@ where it is lost otherwise:
   80 (exp(-80) is a normal float32; the taper has dropped such terms at any cutoff the
   float32 path accepts, see ``SmoothHausdorff``).
 
-Measured against float64 on the bench's 50k-DOF state (38 448 + 38 448 points, alpha
+The loops are spelled out one by one as in kernels.py, for the reason given there (each a
+flat loop with its own fastmath flags, or LLVM does not vectorise it).  Measured against
+float64 on the bench's 50k-DOF state (38 448 + 38 448 points, alpha
 200): see docs/PERFORMANCE.md, "float32 pair sums".
 """
 
