@@ -1,6 +1,6 @@
-"""rho_H with float32 pair sums (``objective.hausdorff.precision: float32``): its exp, its
-distance from the float64 numbers, exact gradients of what it computes, the debiased
-shape term, and the same numbers under MPI."""
+"""rho_H with float32 pair sums (``objective.hausdorff.precision``: float32, or auto where
+the grid prunes): its exp, its distance from the float64 numbers, exact gradients of what
+it computes, the debiased shape term, where auto uses it, and the same numbers under MPI."""
 
 from __future__ import annotations
 
@@ -76,6 +76,23 @@ def test_float32_needs_the_exponential_and_a_finite_cutoff():
         SmoothHausdorff(phi="rational", precision="float32")
     with pytest.raises(ValueError, match="cutoff of at most 60"):
         SmoothHausdorff(cutoff=np.inf, precision="float32")
+
+
+def test_auto_is_float32_where_the_grid_prunes():
+    """'auto' (the config's default): float32 for clouds the grid prunes, float64 for the
+    small ones it sums whole and wherever phi or the cutoff does not allow float32."""
+    big, target = beams()
+    small, small_target = beams(400, 300)
+
+    def value(cloud, other, **kw):
+        return SmoothHausdorff(alpha=200.0, **kw)(cloud, other).value
+
+    assert value(big, target, precision="auto") == value(big, target, precision="float32")
+    assert value(big, target, precision="auto") != value(big, target)
+    assert value(small, small_target, precision="auto") == value(small, small_target)
+    assert value(big, target, precision="auto", phi="rational") == value(big, target,
+                                                                       phi="rational")
+    assert value(big, target, precision="auto", cutoff=80.0) == value(big, target, cutoff=80.0)
 
 
 @pytest.mark.mpi

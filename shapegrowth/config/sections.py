@@ -228,10 +228,11 @@ class HausdorffConfig:
     taper: float = option("width, in e-folds, of the smooth fade-out that ends at the cutoff "
                           "(no more than the cutoff)", 2.0, gt=0)
     precision: str = option(
-        "arithmetic of the pair sums: 'float64', or 'float32' for each pair's distance, "
-        "exponential and taper (phi exp, cutoff <= 60; sums of cells and source gradients "
-        "in float64): ~2x faster, soft distances within ~1e-6 of float64's", "float64",
-        choices=("float64", "float32"))
+        "arithmetic of each pair's distance, exponential and taper: 'float64'; 'float32' (phi "
+        "exp, cutoff <= 60; sums over cells and ranks in float64): ~2x faster, within ~1e-9 "
+        "of float64's rho_H; 'auto': float32 where the cell grid prunes (clouds of 2000 "
+        "points and more, where the pair sums are the cost) and phi and cutoff allow, float64 "
+        "elsewhere", "auto", choices=("auto", "float64", "float32"))
 
     @property
     def alphas(self) -> tuple[float, ...]:

@@ -107,6 +107,9 @@ class HausdorffResult:
     truncated: bool = False
 
 
+PRECISIONS = ("float64", "float32", "auto")
+
+
 @dataclass(frozen=True)
 class SmoothHausdorff:
     """rho_H of (2.9); ``phi`` is 'exp' (exp(-t)) or 'rational' (1/(1+t))."""
@@ -118,22 +121,24 @@ class SmoothHausdorff:
     truncate: bool | None = None  # None: use the cell grid where it prunes
     cutoff: float = kernels.CUTOFF  # pairs beyond exp(-cutoff) of the nearest are dropped
     taper: float = kernels.TAPER  # ... smoothly over the last ``taper`` e-folds before it
-    precision: str = "float64"  # or "float32": each pair's arithmetic (kernels32.py)
+    # each pair's arithmetic: "float64", "float32" (kernels32.py), or "auto": float32 where
+    # the grid prunes (large clouds, where the pair sums are the cost) and phi, cutoff allow
+    precision: str = "float64"
 
     def __post_init__(self) -> None:
-        if self.precision not in ("float64", "float32"):
-            raise ValueError(f"precision must be 'float64' or 'float32', not {self.precision!r}")
-        if self.precision == "float32" and (self.rational or not self.cutoff <= 60.0):
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {PRECISIONS}, not {self.precision!r}")
+        if self.precision == "float32" and not self._float32_allowed:
             raise ValueError("precision 'float32' needs phi 'exp' and a cutoff of at most 60")
+
+    @property
+    def _float32_allowed(self) -> bool:
+        return not self.rational and self.cutoff <= 60.0
 
     @property
     def rational(self) -> bool:
         return self.phi == "rational"
 
-    @property
-    def single(self) -> bool:
-        """Pairs in float32 (kernels32.py)."""
-        return self.precision == "float32"
 
     def _g(self, r: np.ndarray) -> np.ndarray:
         return np.log1p(r) if self.rational else r
@@ -157,10 +162,13 @@ class SmoothHausdorff:
         return s, np.ones_like(s)
 
     def _grid(self, sources, weights, radius) -> cellgrid.SourceGrid:
+        """The sums' grid; with float32 offsets (``local32``) where the pairs run in float32."""
         use = self.truncate
         cell = cellgrid.auto_cell(sources, radius) if use is None else (
             float(np.median(radius)) if use else None)
-        return cellgrid.SourceGrid.build(sources, weights, cell, local32=self.single)
+        single = self.precision == "float32" or (
+            self.precision == "auto" and self._float32_allowed and cell is not None)
+        return cellgrid.SourceGrid.build(sources, weights, cell, local32=single)
 
     def _mean_distance(self, queries, q_weights, sources, s_weights, comm,
                        query_gradient: bool = True, itself: int | None = None) -> _Direction:
@@ -193,7 +201,7 @@ class SmoothHausdorff:
         order = grid.locality_order(queries)
         ordered = np.ascontiguousarray(queries[order])
         Z, V, P = np.empty(len(queries)), np.empty((len(queries), 3)), np.empty(len(queries))
-        if self.single:
+        if grid.local32 is not None:
             top = float(grid.weights.max(initial=0.0)) or 1.0  # weights as fractions of it
             sums = kernels32.soft_values32(
                 ordered, grid.local32, (grid.weights / top).astype(np.float32), grid.origin,
@@ -299,7 +307,7 @@ class SmoothHausdorff:
         grid = d.grid
         order = grid.locality_order(queries)
         ordered = np.ascontiguousarray(queries[order])
-        if self.single:
+        if grid.local32 is not None:
             top = float(np.abs(coef).max(initial=0.0)) or 1.0  # coefficients as fractions
             acc = top * kernels32.soft_source_gradient32(
                 ordered, grid.local32, grid.origin, grid.cell, grid.shape, grid.start,
