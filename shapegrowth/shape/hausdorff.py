@@ -139,7 +139,6 @@ class SmoothHausdorff:
     def rational(self) -> bool:
         return self.phi == "rational"
 
-
     def _g(self, r: np.ndarray) -> np.ndarray:
         return np.log1p(r) if self.rational else r
 
