@@ -52,7 +52,7 @@ class SourceGrid:
         idx = np.minimum(((pts - lo) / cell).astype(np.int64), shape - 1)
         flat = (idx[:, 0] * shape[1] + idx[:, 1]) * shape[2] + idx[:, 2]
         # within a cell by position: the order (and so every float32 sum) does not depend on
-        # how the points were numbered or split over ranks
+        # how the points were numbered
         order = np.lexsort((pts[:, 2], pts[:, 1], pts[:, 0], flat))
         counts = np.bincount(flat, minlength=int(np.prod(shape)))
         start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
@@ -95,11 +95,16 @@ def search_cell(sources: np.ndarray, size: int = 256) -> float | None:
     spacing = float(np.median(_spacing(sample, np.ascontiguousarray(pts.T))))
     if spacing <= 0:
         return None
+    return max(SPACINGS * spacing, _floor_cell(pts, 0.25))  # <= 4 cells a source
+
+
+def _floor_cell(pts: np.ndarray, per_cell: float) -> float:
+    """The cell of a grid with ``per_cell`` sources a cell on average, were they spread over
+    their bounding box (its flat directions left out): the smallest cell a grid takes."""
     extent = pts.max(axis=0) - pts.min(axis=0)
     filled = extent[extent > 1e-12 * max(extent.max(), 1.0)]
     volume = float(np.prod(filled)) if len(filled) else 1.0
-    floor = (volume / (4.0 * len(pts))) ** (1.0 / max(len(filled), 1))  # <= 4 cells a source
-    return max(SPACINGS * spacing, floor)
+    return (volume / (len(pts) / per_cell)) ** (1.0 / max(len(filled), 1))
 
 
 @numba.njit(parallel=True, cache=True)
@@ -129,10 +134,7 @@ def auto_cell(sources: np.ndarray, radii: np.ndarray) -> float | None:
     # cells of 0.6 x the typical cutoff radius (value + gradient at 1e5 points: 0.35: 1.10 s,
     # 0.45: 0.99 s, 0.6: 0.95 s, 0.8: 0.97 s; spans of ~160 sources keep the vector loops
     # busy), but not more cells than ~ sources / 16
-    filled = extent[extent > 1e-12 * max(extent.max(), 1.0)]
-    volume = float(np.prod(filled)) if len(filled) else 1.0
-    floor = (volume / (len(pts) / 16.0)) ** (1.0 / max(len(filled), 1))
-    return max(0.6 * typical, floor)
+    return max(0.6 * typical, _floor_cell(pts, 16.0))
 
 
 @numba.njit(cache=True, inline="always")
