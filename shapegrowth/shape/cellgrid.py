@@ -21,6 +21,12 @@ _FAST_MIN = {"contract", "arcp", "afn", "reassoc", "nnan", "nsz"}  # finite poin
 # included: 1.5: 0.84 s, 2: 0.47, 3: 0.27, 4: 0.20, 6: 0.14-0.21, 8: 0.14, 12: 0.15,
 # 16: 0.18, 24: 0.22 (the sums' grid: 0.31 s, and its sizing sample 0.04 s)
 SPACINGS = 8.0
+# Cells of the float32 sums' grid, in cutoff radii: each cell's sources are trimmed to the
+# query's slab in x (kernels32._slab), so a larger cell costs fewer pairs than it would
+# whole, and fewer calls of the pair loop (each ~35 ns besides its pairs).  S with its
+# gradient at the bench's 50k-DOF state: 0.6: 0.86 s, 0.8: 0.82, 1.0: 0.79, 1.2: 0.80,
+# 1.5: 0.81 (0.92 s at 0.6 without the slab)
+SLAB_CELL = 1.0
 
 
 @dataclass
@@ -122,8 +128,9 @@ def _spacing(sample, xyz):
     return out
 
 
-def auto_cell(sources: np.ndarray, radii: np.ndarray) -> float | None:
-    """Grid cell size for the given cutoff radii, or None when a grid would not prune."""
+def auto_cell(sources: np.ndarray, radii: np.ndarray, per_radius: float = 0.6) -> float | None:
+    """Grid cell size for the given cutoff radii, ``per_radius`` x their median, or None
+    when a grid would not prune."""
     pts = as3(sources)
     if len(pts) < 2000 or len(radii) == 0:
         return None
@@ -131,10 +138,12 @@ def auto_cell(sources: np.ndarray, radii: np.ndarray) -> float | None:
     typical = float(np.median(radii))
     if typical >= 0.5 * float(extent.max()):
         return None  # most queries see most sources
-    # cells of 0.6 x the typical cutoff radius (value + gradient at 1e5 points: 0.35: 1.10 s,
-    # 0.45: 0.99 s, 0.6: 0.95 s, 0.8: 0.97 s; spans of ~160 sources keep the vector loops
-    # busy), but not more cells than ~ sources / 16
-    return max(0.6 * typical, _floor_cell(pts, 16.0))
+    # float64 (whole cells summed): 0.6 x the typical cutoff radius (value + gradient at
+    # 1e5 points: 0.35: 1.10 s, 0.45: 0.99 s, 0.6: 0.95 s, 0.8: 0.97 s; spans of ~160
+    # sources keep the vector loops busy); float32 trims each cell to the query's slab
+    # (kernels32._slab) and takes larger cells (SLAB_CELL); never more cells than
+    # ~ sources / 16
+    return max(per_radius * typical, _floor_cell(pts, 16.0))
 
 
 @numba.njit(cache=True, inline="always")

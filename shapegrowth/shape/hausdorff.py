@@ -167,6 +167,8 @@ class SmoothHausdorff:
             float(np.median(radius)) if use else None)
         single = self.precision == "float32" or (
             self.precision == "auto" and self._float32_allowed and cell is not None)
+        if single and use is None and cell is not None:  # float32 trims cells to slabs
+            cell = cellgrid.auto_cell(sources, radius, cellgrid.SLAB_CELL)
         return cellgrid.SourceGrid.build(sources, weights, cell, local32=single)
 
     def _mean_distance(self, queries, q_weights, sources, s_weights, comm,

@@ -154,6 +154,35 @@ def _corner(origin, cell, ix, iy, iz, q):
     return (_F(q[0] - (origin[0] + ix * cell)), _F(q[1] - (origin[1] + iy * cell)),
             _F(q[2] - (origin[2] + iz * cell)))
 
+@numba.njit(cache=True, inline="always")
+def _first_at_least(xs, j0, j1, v):
+    """The first position in [j0, j1) whose xs is >= v (j1 if none): xs sorted there."""
+    lo, hi = j0, j1
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if xs[mid] < v:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@numba.njit(cache=True, inline="always")
+def _slab(xs, j0, j1, qx, qy, qz, radius, cell):
+    """The sources of one cell (offsets from its corner, sorted by x within it) that the
+    query's ball can reach: those with |x - qx| <= sqrt(radius^2 - by^2 - bz^2), by and bz
+    the query's distances to the cell's box in y and z.  Empty (j0, j0) when the box is
+    beyond the radius.  Pairs farther than the radius add exact zeros (the taper), so a
+    margin of 1e-5 of a cell takes in the few the float32 rounding might leave out."""
+    by = max(-qy, _ZERO, qy - cell)
+    bz = max(-qz, _ZERO, qz - cell)
+    h2 = radius * radius - by * by - bz * bz
+    if h2 < _ZERO:
+        return j0, j0
+    h = np.sqrt(h2) + _F(1e-5) * cell
+    a = _first_at_least(xs, j0, j1, qx - h)
+    return a, _first_at_least(xs, a, j1, qx + h)
+
 
 @numba.njit(parallel=True, cache=True)
 def soft_values32(queries, local, w, origin, cell, shape, start, gmin, radius, alpha, cut,
@@ -166,11 +195,13 @@ def soft_values32(queries, local, w, origin, cell, shape, start, gmin, radius, a
     V = np.zeros((n, 3))
     xs, ys, zs = local[0], local[1], local[2]
     a32, c32, iw32 = _F(alpha), _F(cut), _F(1.0 / width)
+    c32cell = _F(cell)
     for i in numba.prange(n):
         q = queries[i]
         x0, x1 = _cell_range(q, radius[i], origin, cell, shape, 0)
         y0, y1 = _cell_range(q, radius[i], origin, cell, shape, 1)
         base = _F(gmin[i])
+        r32 = _F(radius[i])
         z = 0.0
         p = 0.0
         vx = 0.0
@@ -185,6 +216,9 @@ def soft_values32(queries, local, w, origin, cell, shape, start, gmin, radius, a
                     if j1 == j0:
                         continue
                     qx, qy, qz = _corner(origin, cell, ix, iy, iz, q)
+                    j0, j1 = _slab(xs, j0, j1, qx, qy, qz, r32, c32cell)
+                    if j1 == j0:
+                        continue
                     span = (xs[j0:j1], ys[j0:j1], zs[j0:j1], w[j0:j1])
                     if with_gradient:
                         dz_, dvx, dvy, dvz, dp = _cell_sums(qx, qy, qz, base, a32, c32, iw32,
@@ -215,6 +249,7 @@ def soft_source_gradient32(queries, local, origin, cell, shape, start, gmin, rad
     buf = np.zeros((nchunks, 4, m), dtype=np.float32)
     xs, ys, zs = local[0], local[1], local[2]
     a32, c32, iw32 = _F(alpha), _F(cut), _F(1.0 / width)
+    c32cell = _F(cell)
     size = (n + nchunks - 1) // nchunks
     for k in numba.prange(nchunks):
         ax, ay, az, b = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
@@ -226,6 +261,7 @@ def soft_source_gradient32(queries, local, origin, cell, shape, start, gmin, rad
             x0, x1 = _cell_range(q, radius[i], origin, cell, shape, 0)
             y0, y1 = _cell_range(q, radius[i], origin, cell, shape, 1)
             base = _F(gmin[i])
+            r32 = _F(radius[i])
             for ix in range(x0, x1 + 1):
                 for iy in range(y0, y1 + 1):
                     c0, z0, z1 = _column_cells(q[0], q[1], q[2], radius[i], ix, iy, origin,
@@ -235,6 +271,9 @@ def soft_source_gradient32(queries, local, origin, cell, shape, start, gmin, rad
                         if j1 == j0:
                             continue
                         qx, qy, qz = _corner(origin, cell, ix, iy, iz, q)
+                        j0, j1 = _slab(xs, j0, j1, qx, qy, qz, r32, c32cell)
+                        if j1 == j0:
+                            continue
                         _cell_scatter(qx, qy, qz, base, a32, c32, iw32, a, xs[j0:j1],
                                       ys[j0:j1], zs[j0:j1], ax[j0:j1], ay[j0:j1], az[j0:j1],
                                       b[j0:j1])
