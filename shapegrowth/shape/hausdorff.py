@@ -94,6 +94,9 @@ class _Direction:
     q_total: float  # total weight of the queries (all ranks)
     s_total: float  # total weight of the sources
     farthest: float  # largest nearest-source distance of a query (all ranks)
+    # the source gradient's pair sums (grid order, as soft_source_gradient's), where the
+    # values' sweep made them (kernels32.soft_values_scatter32)
+    scattered: np.ndarray | None = None
 
 
 @dataclass
@@ -172,7 +175,8 @@ class SmoothHausdorff:
         return cellgrid.SourceGrid.build(sources, weights, cell, local32=single)
 
     def _mean_distance(self, queries, q_weights, sources, s_weights, comm,
-                       query_gradient: bool = True, itself: int | None = None) -> _Direction:
+                       query_gradient: bool = True, itself: int | None = None,
+                       scatter: bool = False) -> _Direction:
         """Soft distances of this rank's ``queries`` to all ``sources`` and their beta-mean
         over all ranks' queries (D1 or D2 of (2.9)); V only with ``query_gradient``.
 
@@ -180,7 +184,8 @@ class SmoothHausdorff:
         free) come from a grid of fine cells (cellgrid.search_cell), the sums from a grid sized
         by the cutoff radii they give.  ``itself``: the queries are the sources from this
         position on (a cloud with itself), so each query's nearest source is itself, at
-        distance 0, and no search is made."""
+        distance 0, and no search is made.  ``scatter``: the sources' gradient will be
+        wanted; in float32 (beta >= 1) the values' sweep makes its pair sums too."""
         kernels.one_thread_per_rank()
         nearest = np.zeros(len(queries))
         if itself is None:
@@ -202,7 +207,21 @@ class SmoothHausdorff:
         order = grid.locality_order(queries)
         ordered = np.ascontiguousarray(queries[order])
         Z, V, P = np.empty(len(queries)), np.empty((len(queries), 3)), np.empty(len(queries))
-        if grid.local32 is not None:
+        total = float(s_weights.sum())
+        scattered = None
+        fused = scatter and grid.local32 is not None and self.beta >= 1.0
+        if fused:
+            top = float(grid.weights.max(initial=0.0)) or 1.0
+            q_top = float(q_weights.max(initial=0.0)) or 1.0
+            Z[order], V[order], P[order], scattered = kernels32.soft_values_scatter32(
+                ordered, grid.local32, (grid.weights / top).astype(np.float32), grid.origin,
+                grid.cell, grid.shape, grid.start, gmin[order], radius[order], self.alpha,
+                *self._cut, query_gradient, q_weights[order] / q_top, self.beta,
+                np.log(top / total), _chunks(len(queries)))
+            Z *= top
+            V *= top
+            P *= top
+        elif grid.local32 is not None:
             top = float(grid.weights.max(initial=0.0)) or 1.0  # weights as fractions of it
             sums = kernels32.soft_values32(
                 ordered, grid.local32, (grid.weights / top).astype(np.float32), grid.origin,
@@ -220,13 +239,16 @@ class SmoothHausdorff:
         dg = (slope / np.maximum(nearest, 1e-300))[:, None] * offset
         if query_gradient:
             V -= P[:, None] * dg
-        total = float(s_weights.sum())
         d, mu = self._distance(gmin - np.log(Z / total) / self.alpha)
         q_total = comm.allreduce(float(q_weights.sum()), MPI.SUM)
         A = comm.allreduce(float(np.sum(q_weights * d**self.beta)), MPI.SUM)
         farthest = comm.allreduce(float(nearest.max(initial=0.0)), MPI.MAX)
-        return _Direction((A / q_total) ** (1.0 / self.beta), d, mu, Z, V, P, dg, index, gmin,
-                          radius, grid, q_total, total, farthest)
+        D = (A / q_total) ** (1.0 / self.beta)
+        if scattered is not None:  # the kernel's coefficient times what is common to all
+            scattered *= (D ** (1 - self.beta) * q_top * self.alpha ** (1 - self.beta)
+                          / (q_total * top))
+        return _Direction(D, d, mu, Z, V, P, dg, index, gmin, radius, grid, q_total, total,
+                          farthest, scattered)
 
     def soft_distance(self, points: np.ndarray, cloud: PointCloud) -> np.ndarray:
         """The soft distance d_cloud(x) of (2.9) for each of ``points`` (serial)."""
@@ -245,7 +267,8 @@ class SmoothHausdorff:
         t_own, wt_own = cellgrid.as3(target.points), np.asarray(target.weights, dtype=float)
 
         # target -> body: the target points do not move, only the sources' gradient is needed
-        d1 = self._mean_distance(t_own, wt_own, b_all, wb_all, comm, query_gradient=False)
+        d1 = self._mean_distance(t_own, wt_own, b_all, wb_all, comm, query_gradient=False,
+                                 scatter=gradient)
         d2 = self._mean_distance(b_own, wb_own, t_all, wt_all, comm)  # body -> target
         D1, D2 = d1.mean, d2.mean
         rho = (D1**gamma + D2**gamma) ** (1.0 / gamma)
@@ -274,7 +297,7 @@ class SmoothHausdorff:
         pts_all, w_all, offset = cloud.gathered(comm)
         own, w_own = cellgrid.as3(cloud.points), np.asarray(cloud.weights, dtype=float)
         d = self._mean_distance(own, w_own, pts_all, w_all, comm, query_gradient=gradient,
-                                itself=offset)
+                                itself=offset, scatter=gradient)
         scale = 2.0 ** (1.0 / self.gamma)
         result = HausdorffResult(scale * d.mean, d.mean, d.mean, 0.0,
                                  truncated=d.grid.ncells > 1)
@@ -304,11 +327,13 @@ class SmoothHausdorff:
         tiny = np.finfo(float).tiny
         c = D ** (1 - beta) * q_weights * np.maximum(d.d, tiny) ** (beta - 1) / d.q_total
         coef = c * d.mu / d.Z
-        nchunks = max(1, min(8, len(queries)))
+        nchunks = _chunks(len(queries))
         grid = d.grid
         order = grid.locality_order(queries)
         ordered = np.ascontiguousarray(queries[order])
-        if grid.local32 is not None:
+        if d.scattered is not None:
+            acc = d.scattered
+        elif grid.local32 is not None:
             top = float(np.abs(coef).max(initial=0.0)) or 1.0  # coefficients as fractions
             acc = top * kernels32.soft_source_gradient32(
                 ordered, grid.local32, grid.origin, grid.cell, grid.shape, grid.start,
@@ -328,6 +353,11 @@ class SmoothHausdorff:
         sum_coef = comm.allreduce(float(np.sum(c * d.mu)), MPI.SUM)
         mine = full[s_offset:s_offset + len(s_weights)]
         return mine[:, :3], -(1.0 / self.alpha) * (mine[:, 3] - sum_coef / d.s_total)
+
+
+def _chunks(n: int) -> int:
+    """Blocks of queries of the source-gradient sums, each with its buffers."""
+    return max(1, min(8, n))
 
 
 def exact_hausdorff(a: PointCloud, b: PointCloud, comm: MPI.Comm = MPI.COMM_SELF) -> float:
