@@ -46,9 +46,10 @@ class SourceGrid:
 
     @classmethod
     def build(cls, points: np.ndarray, weights: np.ndarray, cell: float | None,
-              local32: bool = False) -> SourceGrid:
+              local32: bool = False, lexical: np.ndarray | None = None) -> SourceGrid:
         """``cell=None``: one cell holding everything (brute force); ``local32``: keep the
-        float32 offsets of the sources from their cells' corners too."""
+        float32 offsets of the sources from their cells' corners too; ``lexical``: the
+        points' order by (x, y, z) (lexical_order), where the caller keeps it."""
         pts = as3(points)
         lo = pts.min(axis=0) if len(pts) else np.zeros(3)
         hi = pts.max(axis=0) if len(pts) else np.zeros(3)
@@ -58,15 +59,19 @@ class SourceGrid:
         idx = np.minimum(((pts - lo) / cell).astype(np.int64), shape - 1)
         flat = (idx[:, 0] * shape[1] + idx[:, 1]) * shape[2] + idx[:, 2]
         # within a cell by position: the order (and so every float32 sum) does not depend on
-        # how the points were numbered
-        order = np.lexsort((pts[:, 2], pts[:, 1], pts[:, 0], flat))
+        # how the points were numbered; a stable sort by cell of the points' order by
+        # position (at 38k points 1.5 ms against 8.3 ms for the four keys' lexsort)
+        if lexical is None:
+            lexical = lexical_order(pts)
+        order = lexical[np.argsort(flat[lexical], kind="stable")]
         counts = np.bincount(flat, minlength=int(np.prod(shape)))
         start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        ordered = pts[order]
         local = None
         if local32:
-            local = np.ascontiguousarray((pts[order] - (lo + idx[order] * cell)).T,
+            local = np.ascontiguousarray((ordered - (lo + idx[order] * cell)).T,
                                          dtype=np.float32)
-        return cls(np.ascontiguousarray(pts[order].T), np.ascontiguousarray(weights[order]),
+        return cls(np.ascontiguousarray(ordered.T), np.ascontiguousarray(weights[order]),
                    order, lo, float(cell), shape, start, local)
 
     @property
@@ -80,6 +85,12 @@ class SourceGrid:
         return np.argsort(flat, kind="stable")
 
 
+def lexical_order(points: np.ndarray) -> np.ndarray:
+    """The points' order by x, then y, then z."""
+    pts = as3(points)
+    return np.lexsort((pts[:, 2], pts[:, 1], pts[:, 0]))
+
+
 def as3(points: np.ndarray) -> np.ndarray:
     """Points as contiguous (n, 3) float64 (2D points get X3 = 0)."""
     pts = np.asarray(points, dtype=np.float64)
@@ -90,7 +101,7 @@ def as3(points: np.ndarray) -> np.ndarray:
     return out
 
 
-def search_cell(sources: np.ndarray, size: int = 256) -> float | None:
+def search_cell(sources: np.ndarray, size: int = 128) -> float | None:
     """Cell size of the grid that nearest_source searches: SPACINGS x the sources' median
     spacing (the distance from a sample of them to the nearest other one), or None (one
     cell) for a cloud too small to need one."""
