@@ -19,7 +19,8 @@ _FAST_MIN = {"contract", "arcp", "afn", "reassoc", "nnan", "nsz"}  # finite poin
 # median spacing (the sums' grid has cells of ~0.6 cutoff radii, which a search for one
 # source scans whole).  Both directions at the bench's 50k-DOF state, the grid's build
 # included: 1.5: 0.84 s, 2: 0.47, 3: 0.27, 4: 0.20, 6: 0.14-0.21, 8: 0.14, 12: 0.15,
-# 16: 0.18, 24: 0.22 (the sums' grid: 0.31 s, and its sizing sample 0.04 s)
+# 16: 0.18, 24: 0.22 (the sums' grid: 0.31 s, and its sizing sample 0.04 s); with the
+# search's one pass (nearest_source): 3: 0.19, 4: 0.15, 6: 0.11, 8: 0.11, 12: 0.13, 16: 0.14
 SPACINGS = 8.0
 # Cells of the float32 sums' grid, in cutoff radii: each cell's sources are trimmed to the
 # query's slab in x (kernels32._slab), so a larger cell costs fewer pairs than it would
@@ -222,12 +223,14 @@ def _argmin_square(qx, qy, qz, xs, ys, zs):
 @numba.njit(parallel=True, cache=True)
 def nearest_source(queries, xyz, origin, cell, shape, start, nchunks=64):
     """Distance from each query to its nearest source, and that source's position in the
-    grid's sorted order: the ball around the query doubles from one cell until it holds a
-    source no farther than its radius, and never beyond the distance to the source nearest
-    the query before it (queries in locality order: that bound is close, and it spares the
-    far queries a last doubling that overshoots by up to 2x; at the bench's 50k-DOF state
-    on a grid of 8 spacings, 0.15 s -> 0.06 s per direction).  Queries are split in
-    ``nchunks`` blocks, each searched in turn."""
+    grid's sorted order.  The ball around the query is that of the distance to the source
+    nearest the query before it (queries in locality order: that bound is close), scanned
+    once, column by column, each column against the nearest found so far; a block's first
+    query doubles its ball from one cell until it holds a source no farther than its
+    radius.  At the bench's 50k-DOF state on a grid of 8 spacings, both directions: the
+    doubling alone 0.30 s, the doubling bounded by the last query's nearest 0.10 s, one
+    pass over the bound's shrinking ball 0.07 s.  Queries are split in ``nchunks`` blocks,
+    each searched in turn."""
     n = queries.shape[0]
     out = np.empty(n)
     index = np.empty(n, dtype=np.int64)
@@ -244,16 +247,22 @@ def nearest_source(queries, xyz, origin, cell, shape, start, nchunks=64):
                 dy = qy - ys[last]
                 dz = qz - zs[last]
                 bound = math.sqrt(dx * dx + dy * dy + dz * dz) * (1.0 + 1e-9) + 1e-300
-            rho = min(cell, bound)
+            # with a bound, one pass over its ball, which shrinks to the nearest found so
+            # far (no doubling: each round rescanned the cells of the one before)
+            rho = bound if last >= 0 else cell
             best = np.inf
             at0 = 0
             at1 = 0
             while True:
                 x0, x1 = _cell_range(queries[i], rho, origin, cell, shape, 0)
                 y0, y1 = _cell_range(queries[i], rho, origin, cell, shape, 1)
+                reach_now = rho
                 for ix in range(x0, x1 + 1):
                     for iy in range(y0, y1 + 1):
-                        j0, j1 = _column(qx, qy, qz, rho, ix, iy, origin, cell, shape, start)
+                        if best < reach_now * reach_now:
+                            reach_now = math.sqrt(best) * (1.0 + 1e-9) + 1e-300
+                        j0, j1 = _column(qx, qy, qz, reach_now, ix, iy, origin, cell, shape,
+                                         start)
                         # blocks of 64: the vectorised minimum of each, the block that holds
                         # the nearest kept for the scalar search of its position
                         for b0 in range(j0, j1, 64):
