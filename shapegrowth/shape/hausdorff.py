@@ -89,8 +89,9 @@ class PointCloud:
     def extent(self, comm: MPI.Comm = MPI.COMM_SELF) -> float:
         """Largest extent of the cloud along a coordinate axis."""
         pts = self.points
-        lo = pts.min(axis=0) if len(pts) else np.full(pts.shape[1], np.inf)
-        hi = pts.max(axis=0) if len(pts) else np.full(pts.shape[1], -np.inf)
+        lo, hi = cellgrid.bounding_box(pts)
+        if not len(pts):
+            lo, hi = np.full(pts.shape[1], np.inf), np.full(pts.shape[1], -np.inf)
         comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
         comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
         return float((hi - lo).max())
