@@ -77,12 +77,12 @@ def test_one_sweep_gives_the_two_passes_sums(with_gradient):
     grid = SourceGrid.build(a.points, a.weights, float(np.median(radius)), local32=True)
     top, total = grid.weights.max(), grid.weights.sum()
     w32 = (grid.weights / top).astype(np.float32)
-    args = (queries, grid.local32, grid.origin, grid.cell, grid.shape, grid.start, gmin,
-            radius, alpha, cut, width)
+    args = (queries, grid.local32, grid.box32, grid.origin, grid.cell, grid.shape, grid.start,
+            gmin, radius, alpha, cut, width)
     qscale = b.weights / b.weights.max()
     Z, V, P, acc = kernels32.soft_values_scatter32(
-        *args[:2], w32, *args[2:], with_gradient, qscale, beta, np.log(top / total), 4)
-    Z2, V2, P2 = kernels32.soft_values32(*args[:2], w32, *args[2:], with_gradient)
+        *args[:3], w32, *args[3:], with_gradient, qscale, beta, np.log(top / total), 4)
+    Z2, V2, P2 = kernels32.soft_values32(*args[:3], w32, *args[3:], with_gradient)
     assert np.allclose(Z, Z2, rtol=1e-6, atol=0) and np.allclose(P, P2, rtol=1e-5, atol=0)
     assert np.abs(V - V2).max() <= 1e-5 * np.abs(V2).max()
     d = gmin - (np.log(Z2) + np.log(top / total)) / alpha
@@ -90,6 +90,26 @@ def test_one_sweep_gives_the_two_passes_sums(with_gradient):
     acc2 = coef.max() * kernels32.soft_source_gradient32(
         *args, (coef / coef.max()).astype(np.float32), 4)
     assert np.abs(acc - acc2).max() <= 1e-5 * np.abs(acc2).max()
+
+
+def test_cell_boxes_are_their_sources_bounds():
+    """Each cell's box (the y and z bounds that kernels32._slab trims by) holds its sources'
+    offsets and is attained by them; the x offsets are sorted within the cell."""
+    from shapegrowth.shape.cellgrid import SourceGrid
+
+    a, _ = beams()
+    grid = SourceGrid.build(a.points, a.weights, 0.05, local32=True)
+    assert grid.box32 is not None and grid.local32 is not None
+    filled = 0
+    for c in range(grid.ncells):
+        j0, j1 = grid.start[c], grid.start[c + 1]
+        if j1 == j0:
+            continue
+        filled += 1
+        y, z = grid.local32[1, j0:j1], grid.local32[2, j0:j1]
+        assert list(grid.box32[c]) == [y.min(), y.max(), z.min(), z.max()]
+        assert np.all(np.diff(grid.local32[0, j0:j1]) >= 0)
+    assert filled > 10
 
 
 def test_taylor_in_float32_below_beta_one():

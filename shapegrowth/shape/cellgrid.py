@@ -44,6 +44,9 @@ class SourceGrid:
     # (3, m) float32: each sorted source's offset from its own cell's lowest corner, for the
     # float32 pair loops (kernels32.py): offsets of at most a cell keep 7 digits of a distance
     local32: np.ndarray | None = None
+    # (ncells, 4) float32 with local32: the lowest and highest y and z offsets of each
+    # cell's sources, the box kernels32._slab trims a cell's sources by
+    box32: np.ndarray | None = None
 
     @classmethod
     def build(cls, points: np.ndarray, weights: np.ndarray, cell: float | None,
@@ -67,12 +70,13 @@ class SourceGrid:
         counts = np.bincount(flat, minlength=int(np.prod(shape)))
         start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         ordered = pts[order]
-        local = None
+        local = box = None
         if local32:
             local = np.ascontiguousarray((ordered - (lo + idx[order] * cell)).T,
                                          dtype=np.float32)
+            box = _cell_boxes(local, start)
         return cls(np.ascontiguousarray(ordered.T), np.ascontiguousarray(weights[order]),
-                   order, lo, float(cell), shape, start, local)
+                   order, lo, float(cell), shape, start, local, box)
 
     @property
     def ncells(self) -> int:
@@ -83,6 +87,23 @@ class SourceGrid:
         idx = np.clip(((queries - self.origin) / self.cell).astype(np.int64), 0, self.shape - 1)
         flat = (idx[:, 0] * self.shape[1] + idx[:, 1]) * self.shape[2] + idx[:, 2]
         return np.argsort(flat, kind="stable")
+
+
+@numba.njit(cache=True)
+def _cell_boxes(local, start):
+    """The lowest and highest y and z offsets of each cell's sources (zeros for none)."""
+    box = np.zeros((start.shape[0] - 1, 4), dtype=np.float32)
+    for c in range(start.shape[0] - 1):
+        j0, j1 = start[c], start[c + 1]
+        if j1 > j0:
+            box[c, 0] = box[c, 1] = local[1, j0]
+            box[c, 2] = box[c, 3] = local[2, j0]
+            for j in range(j0 + 1, j1):
+                box[c, 0] = min(box[c, 0], local[1, j])
+                box[c, 1] = max(box[c, 1], local[1, j])
+                box[c, 2] = min(box[c, 2], local[2, j])
+                box[c, 3] = max(box[c, 3], local[2, j])
+    return box
 
 
 def lexical_order(points: np.ndarray) -> np.ndarray:

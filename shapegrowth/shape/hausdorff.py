@@ -238,9 +238,9 @@ class SmoothHausdorff:
             top = float(grid.weights.max(initial=0.0)) or 1.0
             q_top = float(q_weights.max(initial=0.0)) or 1.0
             Z[order], V[order], P[order], scattered = kernels32.soft_values_scatter32(
-                ordered, grid.local32, (grid.weights / top).astype(np.float32), grid.origin,
-                grid.cell, grid.shape, grid.start, gmin[order], radius[order], self.alpha,
-                *self._cut, query_gradient, q_weights[order] / q_top, self.beta,
+                ordered, grid.local32, grid.box32, (grid.weights / top).astype(np.float32),
+                grid.origin, grid.cell, grid.shape, grid.start, gmin[order], radius[order],
+                self.alpha, *self._cut, query_gradient, q_weights[order] / q_top, self.beta,
                 np.log(top / total), _chunks(len(queries)))
             Z *= top
             V *= top
@@ -248,9 +248,9 @@ class SmoothHausdorff:
         elif grid.local32 is not None:
             top = float(grid.weights.max(initial=0.0)) or 1.0  # weights as fractions of it
             sums = kernels32.soft_values32(
-                ordered, grid.local32, (grid.weights / top).astype(np.float32), grid.origin,
-                grid.cell, grid.shape, grid.start, gmin[order], radius[order], self.alpha,
-                *self._cut, query_gradient)
+                ordered, grid.local32, grid.box32, (grid.weights / top).astype(np.float32),
+                grid.origin, grid.cell, grid.shape, grid.start, gmin[order], radius[order],
+                self.alpha, *self._cut, query_gradient)
             Z[order], V[order], P[order] = (top * part for part in sums)
         else:
             Z[order], V[order], P[order] = kernels.soft_values(
@@ -371,7 +371,7 @@ class SmoothHausdorff:
         if grid.local32 is not None:
             top = float(np.abs(coef).max(initial=0.0)) or 1.0  # coefficients as fractions
             return top * kernels32.soft_source_gradient32(
-                ordered, grid.local32, grid.origin, grid.cell, grid.shape, grid.start,
+                ordered, grid.local32, grid.box32, grid.origin, grid.cell, grid.shape, grid.start,
                 d.gmin[order], d.radius[order], self.alpha, *self._cut,
                 (coef[order] / top).astype(np.float32), nchunks)
         return kernels.soft_source_gradient(ordered, grid.xyz, grid.origin, grid.cell,
