@@ -112,6 +112,27 @@ def test_cell_boxes_are_their_sources_bounds():
     assert filled > 10
 
 
+def test_dealt_queries_keep_their_blocks_and_span_the_cloud():
+    """locality_order with parts: a permutation of the queries, blocks of QUERY_BLOCK
+    neighbours kept whole, and each part's range reaching from one end of the cloud to the
+    other (a static split among threads gives each thread its share of both)."""
+    from shapegrowth.shape import cellgrid
+    from shapegrowth.shape.cellgrid import SourceGrid
+
+    a, b = beams()
+    grid = SourceGrid.build(a.points, a.weights, 0.05, local32=True)
+    plain = grid.locality_order(b.points)
+    dealt = grid.locality_order(b.points, parts=4)
+    assert sorted(dealt) == list(range(len(b.points)))
+    block = cellgrid.QUERY_BLOCK
+    assert np.array_equal(dealt[:block], plain[:block])
+    assert np.array_equal(dealt[block:2 * block], plain[4 * block:5 * block])
+    rank = np.empty(len(plain), dtype=int)
+    rank[plain] = np.arange(len(plain))
+    for part in np.array_split(rank[dealt], 4):
+        assert part.min() < 0.1 * len(plain) and part.max() > 0.9 * len(plain)
+
+
 def test_taylor_in_float32_below_beta_one():
     """beta < 1 keeps the two passes (the one sweep's float32 coefficients need beta >= 1):
     its gradient is exact too."""

@@ -28,6 +28,9 @@ SPACINGS = 8.0
 # gradient at the bench's 50k-DOF state: 0.6: 0.86 s, 0.8: 0.82, 1.0: 0.79, 1.2: 0.80,
 # 1.5: 0.81 (0.92 s at 0.6 without the slab)
 SLAB_CELL = 1.0
+# Queries dealt to threads in blocks of this many neighbours (SourceGrid.locality_order):
+# 16, 64, 256 and 1024 measured the same
+QUERY_BLOCK = 64
 
 
 @dataclass
@@ -82,11 +85,24 @@ class SourceGrid:
     def ncells(self) -> int:
         return int(np.prod(self.shape))
 
-    def locality_order(self, queries: np.ndarray) -> np.ndarray:
-        """An order of the queries by grid cell: neighbours in turn reuse cached sources."""
+    def locality_order(self, queries: np.ndarray, parts: int = 1) -> np.ndarray:
+        """An order of the queries by grid cell: neighbours in turn reuse cached sources.
+
+        ``parts`` > 1: blocks of QUERY_BLOCK neighbours are dealt in turn to ``parts``
+        parts, each part one contiguous range of the order, so that a static split of the
+        queries (or of ``parts`` chunks) among threads gives each thread queries from all
+        over the cloud.  Split by position, one of two threads had the costlier half: S
+        with its gradient at the bench's 50k-DOF state 0.60 -> 0.56 s dealt (the pair sums
+        0.025 s, the nearest-source search 0.015 s)."""
         idx = np.clip(((queries - self.origin) / self.cell).astype(np.int64), 0, self.shape - 1)
         flat = (idx[:, 0] * self.shape[1] + idx[:, 1]) * self.shape[2] + idx[:, 2]
-        return np.argsort(flat, kind="stable")
+        order = np.argsort(flat, kind="stable")
+        if parts <= 1:
+            return order
+        blocks = np.arange(-(-len(order) // QUERY_BLOCK))
+        dealt = np.concatenate([blocks[k::parts] for k in range(parts)])
+        at = (dealt[:, None] * QUERY_BLOCK + np.arange(QUERY_BLOCK)).ravel()
+        return order[at[at < len(order)]]
 
 
 @numba.njit(cache=True)

@@ -214,7 +214,7 @@ class SmoothHausdorff:
         nearest = np.zeros(len(queries))
         if itself is None:
             search = cloud.search_grid(comm)
-            lookup = search.locality_order(queries)
+            lookup = search.locality_order(queries, _chunks(len(queries)))
             source_of = np.empty(len(queries), dtype=np.int64)
             nearest[lookup], found = cellgrid.nearest_source(
                 np.ascontiguousarray(queries[lookup]), search.xyz, search.origin, search.cell,
@@ -228,7 +228,7 @@ class SmoothHausdorff:
         position = np.empty(len(sources), dtype=np.int64)
         position[grid.order] = np.arange(len(sources))
         index = position[source_of]  # each query's nearest source in the sums' grid's order
-        order = grid.locality_order(queries)
+        order = grid.locality_order(queries, _chunks(len(queries)))
         ordered = np.ascontiguousarray(queries[order])
         Z, V, P = np.empty(len(queries)), np.empty((len(queries), 3)), np.empty(len(queries))
         total = float(s_weights.sum())
@@ -366,7 +366,7 @@ class SmoothHausdorff:
         """The source gradient's pair sums in a pass of their own (soft_source_gradient)."""
         nchunks = _chunks(len(queries))
         grid = d.grid
-        order = grid.locality_order(queries)
+        order = grid.locality_order(queries, nchunks)
         ordered = np.ascontiguousarray(queries[order])
         if grid.local32 is not None:
             top = float(np.abs(coef).max(initial=0.0)) or 1.0  # coefficients as fractions
