@@ -23,7 +23,8 @@ where it is lost otherwise:
 Where the sources' gradient is wanted (the target -> body and body -> body terms) one
 sweep gives both (soft_values_scatter32, below): at the bench's case the two terms took
 0.24 + 0.19 s in two passes, 0.19 + 0.16 s in one.  Each cell's sources are trimmed to
-the query's slab in x (_slab): they are sorted by x within their cell.
+the query's slab in x (_slab): they are sorted by x within their cell, and the slab's
+width is that of the ball where it meets the box the cell's sources fill in y and z.
 
 The loops are spelled out one by one as in kernels.py, for the reason given there (each a
 flat loop with its own fastmath flags, or LLVM does not vectorise it).  Measured against
@@ -194,8 +195,8 @@ def _slab(xs, j0, j1, qx, qy, qz, radius, cell, box):
 @numba.njit(parallel=True, cache=True)
 def soft_values32(queries, local, box, w, origin, cell, shape, start, gmin, radius, alpha, cut,
                   width, with_gradient):
-    """kernels.soft_values for phi = exp in float32 (``local``: SourceGrid.local32, ``w``:
-    the sorted weights divided by their largest, as float32)."""
+    """kernels.soft_values for phi = exp in float32 (``local``: SourceGrid.local32, ``box``:
+    SourceGrid.box32, ``w``: the sorted weights divided by their largest, as float32)."""
     n = queries.shape[0]
     Z = np.zeros(n)
     P = np.zeros(n)
