@@ -82,7 +82,7 @@ def test_one_sweep_gives_the_two_passes_sums(with_gradient):
     qscale = b.weights / b.weights.max()
     Z, V, P, acc = kernels32.soft_values_scatter32(
         *args[:3], w32, *args[3:], with_gradient, qscale, beta, np.log(top / total), 4)
-    Z2, V2, P2 = kernels32.soft_values32(*args[:3], w32, *args[3:], with_gradient)
+    Z2, V2, P2 = kernels32.soft_values32(*args[:3], w32, *args[3:], with_gradient, 4)
     assert np.allclose(Z, Z2, rtol=1e-6, atol=0) and np.allclose(P, P2, rtol=1e-5, atol=0)
     assert np.abs(V - V2).max() <= 1e-5 * np.abs(V2).max()
     d = gmin - (np.log(Z2) + np.log(top / total)) / alpha
@@ -90,6 +90,32 @@ def test_one_sweep_gives_the_two_passes_sums(with_gradient):
     acc2 = coef.max() * kernels32.soft_source_gradient32(
         *args, (coef / coef.max()).astype(np.float32), 4)
     assert np.abs(acc - acc2).max() <= 1e-5 * np.abs(acc2).max()
+
+
+def test_balls_over_many_cells_sum_as_float64():
+    """Queries far from the sources meet hundreds of cells (more slabs than the span arrays
+    first hold, so they grow): the float32 sweeps against the float64 loops of kernels.py."""
+    from scipy.spatial import cKDTree
+
+    from shapegrowth.shape import kernels, kernels32
+    from shapegrowth.shape.cellgrid import SourceGrid
+
+    a, b = beams()
+    queries = np.concatenate([b.points[:40], b.points[:5] + [0.0, 0.0, 0.3]])
+    alpha, cut, width = 200.0, 14.0, 2.0
+    gmin = cKDTree(a.points).query(queries)[0]
+    radius = gmin + cut / alpha
+    grid = SourceGrid.build(a.points, a.weights, 0.01, local32=True)
+    args = (grid.origin, grid.cell, grid.shape, grid.start, gmin, radius, alpha, cut, width)
+    Z, V, P = kernels.soft_values(queries, grid.xyz, grid.weights, *args, False, True)
+    w32 = grid.weights.astype(np.float32)
+    Z1, V1, P1 = kernels32.soft_values32(queries, grid.local32, grid.box32, w32, *args, True, 4)
+    ones = np.ones(len(queries))
+    Z2, V2, P2, _ = kernels32.soft_values_scatter32(queries, grid.local32, grid.box32, w32,
+                                                     *args, True, ones, 2.0, 0.0, 4)
+    for z, v in ((Z1, V1), (Z2, V2)):
+        assert np.allclose(z, Z, rtol=1e-5, atol=0)
+        assert np.abs(v - V).max() <= 1e-5 * np.abs(V).max()
 
 
 def test_cell_boxes_are_their_sources_bounds():

@@ -250,7 +250,7 @@ class SmoothHausdorff:
             sums = kernels32.soft_values32(
                 ordered, grid.local32, grid.box32, (grid.weights / top).astype(np.float32),
                 grid.origin, grid.cell, grid.shape, grid.start, gmin[order], radius[order],
-                self.alpha, *self._cut, query_gradient)
+                self.alpha, *self._cut, query_gradient, _chunks(len(queries)))
             Z[order], V[order], P[order] = (top * part for part in sums)
         else:
             Z[order], V[order], P[order] = kernels.soft_values(

@@ -192,58 +192,94 @@ def _slab(xs, j0, j1, qx, qy, qz, radius, cell, box):
     return a, _first_at_least(xs, a, j1, qx + h)
 
 
+@numba.njit(cache=True)
+def _spans(q, radius, origin, cell, shape, start, xs, box, spans, corners):
+    """The sources the query's ball reaches, as the slabs (_slab) of the cells it meets:
+    each slab's range (j0, j1) in ``spans`` and the query's offsets from its cell's corner
+    in ``corners``.  Returns how many, or -1 when the arrays hold too few (_more_spans)."""
+    x0, x1 = _cell_range(q, radius, origin, cell, shape, 0)
+    y0, y1 = _cell_range(q, radius, origin, cell, shape, 1)
+    r32 = _F(radius)
+    c32cell = _F(cell)
+    count = 0
+    for ix in range(x0, x1 + 1):
+        for iy in range(y0, y1 + 1):
+            c0, z0, z1 = _column_cells(q[0], q[1], q[2], radius, ix, iy, origin, cell, shape)
+            for iz in range(z0, z1 + 1):
+                j0, j1 = start[c0 + iz], start[c0 + iz + 1]
+                if j1 == j0:
+                    continue
+                qx, qy, qz = _corner(origin, cell, ix, iy, iz, q)
+                j0, j1 = _slab(xs, j0, j1, qx, qy, qz, r32, c32cell, box[c0 + iz])
+                if j1 == j0:
+                    continue
+                if count == spans.shape[0]:
+                    return -1
+                spans[count, 0] = j0
+                spans[count, 1] = j1
+                corners[count, 0] = qx
+                corners[count, 1] = qy
+                corners[count, 2] = qz
+                count += 1
+    return count
+
+
+@numba.njit(cache=True)
+def _more_spans(spans):
+    """Span arrays twice as long as ``spans``."""
+    size = 2 * spans.shape[0]
+    return np.empty((size, 2), dtype=np.int64), np.empty((size, 3), dtype=np.float32)
+
+
 @numba.njit(parallel=True, cache=True)
 def soft_values32(queries, local, box, w, origin, cell, shape, start, gmin, radius, alpha, cut,
-                  width, with_gradient):
+                  width, with_gradient, nchunks):
     """kernels.soft_values for phi = exp in float32 (``local``: SourceGrid.local32, ``box``:
-    SourceGrid.box32, ``w``: the sorted weights divided by their largest, as float32)."""
+    SourceGrid.box32, ``w``: the sorted weights divided by their largest, as float32), the
+    queries split in ``nchunks`` blocks."""
     n = queries.shape[0]
     Z = np.zeros(n)
     P = np.zeros(n)
     V = np.zeros((n, 3))
     xs, ys, zs = local[0], local[1], local[2]
     a32, c32, iw32 = _F(alpha), _F(cut), _F(1.0 / width)
-    c32cell = _F(cell)
-    for i in numba.prange(n):
-        q = queries[i]
-        x0, x1 = _cell_range(q, radius[i], origin, cell, shape, 0)
-        y0, y1 = _cell_range(q, radius[i], origin, cell, shape, 1)
-        base = _F(gmin[i])
-        r32 = _F(radius[i])
-        z = 0.0
-        p = 0.0
-        vx = 0.0
-        vy = 0.0
-        vz = 0.0
-        for ix in range(x0, x1 + 1):
-            for iy in range(y0, y1 + 1):
-                c0, z0, z1 = _column_cells(q[0], q[1], q[2], radius[i], ix, iy, origin, cell,
-                                           shape)
-                for iz in range(z0, z1 + 1):
-                    j0, j1 = start[c0 + iz], start[c0 + iz + 1]
-                    if j1 == j0:
-                        continue
-                    qx, qy, qz = _corner(origin, cell, ix, iy, iz, q)
-                    j0, j1 = _slab(xs, j0, j1, qx, qy, qz, r32, c32cell, box[c0 + iz])
-                    if j1 == j0:
-                        continue
-                    span = (xs[j0:j1], ys[j0:j1], zs[j0:j1], w[j0:j1])
-                    if with_gradient:
-                        dz_, dvx, dvy, dvz, dp = _cell_sums(qx, qy, qz, base, a32, c32, iw32,
-                                                            *span)
-                    else:
-                        dz_, dvx, dvy, dvz, dp = _cell_values(qx, qy, qz, base, a32, c32,
-                                                              iw32, *span)
-                    z += dz_
-                    p += dp
-                    vx += dvx
-                    vy += dvy
-                    vz += dvz
-        Z[i] = z
-        P[i] = p
-        V[i, 0] = vx
-        V[i, 1] = vy
-        V[i, 2] = vz
+    size = (n + nchunks - 1) // nchunks
+    for k in numba.prange(nchunks):
+        spans = np.empty((256, 2), dtype=np.int64)
+        corners = np.empty((256, 3), dtype=np.float32)
+        for i in range(k * size, min(n, (k + 1) * size)):
+            q = queries[i]
+            count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans, corners)
+            while count < 0:
+                spans, corners = _more_spans(spans)
+                count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans,
+                               corners)
+            base = _F(gmin[i])
+            z = 0.0
+            p = 0.0
+            vx = 0.0
+            vy = 0.0
+            vz = 0.0
+            for t in range(count):
+                j0, j1 = spans[t, 0], spans[t, 1]
+                qx, qy, qz = corners[t, 0], corners[t, 1], corners[t, 2]
+                span = (xs[j0:j1], ys[j0:j1], zs[j0:j1], w[j0:j1])
+                if with_gradient:
+                    dz_, dvx, dvy, dvz, dp = _cell_sums(qx, qy, qz, base, a32, c32, iw32,
+                                                        *span)
+                else:
+                    dz_, dvx, dvy, dvz, dp = _cell_values(qx, qy, qz, base, a32, c32, iw32,
+                                                          *span)
+                z += dz_
+                p += dp
+                vx += dvx
+                vy += dvy
+                vz += dvz
+            Z[i] = z
+            P[i] = p
+            V[i, 0] = vx
+            V[i, 1] = vy
+            V[i, 2] = vz
     return Z, V, P
 
 
@@ -257,34 +293,27 @@ def soft_source_gradient32(queries, local, box, origin, cell, shape, start, gmin
     buf = np.zeros((nchunks, 4, m), dtype=np.float32)
     xs, ys, zs = local[0], local[1], local[2]
     a32, c32, iw32 = _F(alpha), _F(cut), _F(1.0 / width)
-    c32cell = _F(cell)
     size = (n + nchunks - 1) // nchunks
     for k in numba.prange(nchunks):
         ax, ay, az, b = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
+        spans = np.empty((256, 2), dtype=np.int64)
+        corners = np.empty((256, 3), dtype=np.float32)
         for i in range(k * size, min(n, (k + 1) * size)):
             a = coef[i]
             if a == _ZERO:
                 continue
             q = queries[i]
-            x0, x1 = _cell_range(q, radius[i], origin, cell, shape, 0)
-            y0, y1 = _cell_range(q, radius[i], origin, cell, shape, 1)
+            count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans, corners)
+            while count < 0:
+                spans, corners = _more_spans(spans)
+                count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans,
+                               corners)
             base = _F(gmin[i])
-            r32 = _F(radius[i])
-            for ix in range(x0, x1 + 1):
-                for iy in range(y0, y1 + 1):
-                    c0, z0, z1 = _column_cells(q[0], q[1], q[2], radius[i], ix, iy, origin,
-                                               cell, shape)
-                    for iz in range(z0, z1 + 1):
-                        j0, j1 = start[c0 + iz], start[c0 + iz + 1]
-                        if j1 == j0:
-                            continue
-                        qx, qy, qz = _corner(origin, cell, ix, iy, iz, q)
-                        j0, j1 = _slab(xs, j0, j1, qx, qy, qz, r32, c32cell, box[c0 + iz])
-                        if j1 == j0:
-                            continue
-                        _cell_scatter(qx, qy, qz, base, a32, c32, iw32, a, xs[j0:j1],
-                                      ys[j0:j1], zs[j0:j1], ax[j0:j1], ay[j0:j1], az[j0:j1],
-                                      b[j0:j1])
+            for t in range(count):
+                j0, j1 = spans[t, 0], spans[t, 1]
+                _cell_scatter(corners[t, 0], corners[t, 1], corners[t, 2], base, a32, c32,
+                              iw32, a, xs[j0:j1], ys[j0:j1], zs[j0:j1], ax[j0:j1], ay[j0:j1],
+                              az[j0:j1], b[j0:j1])
     total = np.zeros((m, 4))
     for k in range(nchunks):
         for c in range(4):
@@ -358,7 +387,8 @@ def _cell_replay(qx, qy, qz, a, xs, ys, zs, es, fs, ax, ay, az, b):
 
 @numba.njit(cache=True)
 def _grown(buf, need):
-    """``buf``, or a buffer twice as long when it holds fewer than ``need``."""
+    """``buf``, or a new buffer (its contents not kept) of at least twice its length when
+    it holds fewer than ``need``."""
     if buf.shape[0] >= need:
         return buf
     return np.empty(max(need, 2 * buf.shape[0]), dtype=buf.dtype)
@@ -383,7 +413,6 @@ def soft_values_scatter32(queries, local, box, w, origin, cell, shape, start, gm
     buf = np.zeros((nchunks, 4, m), dtype=np.float32)
     xs, ys, zs = local[0], local[1], local[2]
     a32, c32, iw32 = _F(alpha), _F(cut), _F(1.0 / width)
-    c32cell = _F(cell)
     tiny = np.finfo(np.float64).tiny
     size = (n + nchunks - 1) // nchunks
     for k in numba.prange(nchunks):
@@ -394,64 +423,41 @@ def soft_values_scatter32(queries, local, box, w, origin, cell, shape, start, gm
         corners = np.empty((256, 3), dtype=np.float32)
         for i in range(k * size, min(n, (k + 1) * size)):
             q = queries[i]
-            x0, x1 = _cell_range(q, radius[i], origin, cell, shape, 0)
-            y0, y1 = _cell_range(q, radius[i], origin, cell, shape, 1)
+            count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans, corners)
+            while count < 0:
+                spans, corners = _more_spans(spans)
+                count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans,
+                               corners)
+            pairs = 0
+            for t in range(count):
+                pairs += spans[t, 1] - spans[t, 0]
+            if pairs > es.shape[0]:
+                es = _grown(es, pairs)
+                fs = _grown(fs, pairs)
             base = _F(gmin[i])
-            r32 = _F(radius[i])
             z = 0.0
             p = 0.0
             vx = 0.0
             vy = 0.0
             vz = 0.0
             kept = 0
-            nspan = 0
-            for ix in range(x0, x1 + 1):
-                for iy in range(y0, y1 + 1):
-                    c0, z0, z1 = _column_cells(q[0], q[1], q[2], radius[i], ix, iy, origin, cell,
-                                               shape)
-                    for iz in range(z0, z1 + 1):
-                        j0, j1 = start[c0 + iz], start[c0 + iz + 1]
-                        if j1 == j0:
-                            continue
-                        qx, qy, qz = _corner(origin, cell, ix, iy, iz, q)
-                        j0, j1 = _slab(xs, j0, j1, qx, qy, qz, r32, c32cell, box[c0 + iz])
-                        if j1 == j0:
-                            continue
-                        if nspan == spans.shape[0]:
-                            more = np.empty((2 * nspan, 2), dtype=np.int64)
-                            more[:nspan] = spans
-                            spans = more
-                            wider = np.empty((2 * nspan, 3), dtype=np.float32)
-                            wider[:nspan] = corners
-                            corners = wider
-                        spans[nspan, 0] = j0
-                        spans[nspan, 1] = j1
-                        corners[nspan, 0] = qx
-                        corners[nspan, 1] = qy
-                        corners[nspan, 2] = qz
-                        nspan += 1
-                        need = kept + j1 - j0
-                        if need > es.shape[0]:
-                            grown = _grown(es, need)
-                            grown[:kept] = es[:kept]
-                            es = grown
-                            grown = _grown(fs, need)
-                            grown[:kept] = fs[:kept]
-                            fs = grown
-                        span = (xs[j0:j1], ys[j0:j1], zs[j0:j1], w[j0:j1], es[kept:need],
-                                fs[kept:need])
-                        if with_gradient:
-                            dz_, dvx, dvy, dvz, dp = _cell_sums_kept(qx, qy, qz, base, a32,
-                                                                     c32, iw32, *span)
-                        else:
-                            dz_, dvx, dvy, dvz, dp = _cell_values_kept(qx, qy, qz, base, a32,
-                                                                       c32, iw32, *span)
-                        z += dz_
-                        p += dp
-                        vx += dvx
-                        vy += dvy
-                        vz += dvz
-                        kept = need
+            for t in range(count):
+                j0, j1 = spans[t, 0], spans[t, 1]
+                qx, qy, qz = corners[t, 0], corners[t, 1], corners[t, 2]
+                end = kept + j1 - j0
+                span = (xs[j0:j1], ys[j0:j1], zs[j0:j1], w[j0:j1], es[kept:end], fs[kept:end])
+                if with_gradient:
+                    dz_, dvx, dvy, dvz, dp = _cell_sums_kept(qx, qy, qz, base, a32, c32, iw32,
+                                                             *span)
+                else:
+                    dz_, dvx, dvy, dvz, dp = _cell_values_kept(qx, qy, qz, base, a32, c32,
+                                                               iw32, *span)
+                z += dz_
+                p += dp
+                vx += dvx
+                vy += dvy
+                vz += dvz
+                kept = end
             Z[i] = z
             P[i] = p
             V[i, 0] = vx
@@ -462,10 +468,10 @@ def soft_values_scatter32(queries, local, box, w, origin, cell, shape, start, gm
             if a == _ZERO:
                 continue
             at = 0
-            for s in range(nspan):
-                j0, j1 = spans[s, 0], spans[s, 1]
+            for t in range(count):
+                j0, j1 = spans[t, 0], spans[t, 1]
                 end = at + j1 - j0
-                _cell_replay(corners[s, 0], corners[s, 1], corners[s, 2], a, xs[j0:j1],
+                _cell_replay(corners[t, 0], corners[t, 1], corners[t, 2], a, xs[j0:j1],
                              ys[j0:j1], zs[j0:j1], es[at:end], fs[at:end], ax[j0:j1],
                              ay[j0:j1], az[j0:j1], b[j0:j1])
                 at = end
