@@ -112,6 +112,7 @@ class _Direction:
     gmin: np.ndarray
     radius: np.ndarray
     grid: cellgrid.SourceGrid
+    order: np.ndarray  # the queries in the order the sums' sweeps take them
     q_total: float  # total weight of the queries (all ranks)
     s_total: float  # total weight of the sources
     farthest: float  # largest nearest-source distance of a query (all ranks)
@@ -271,8 +272,8 @@ class SmoothHausdorff:
         if scattered is not None:  # the kernel's coefficient times what is common to all
             scattered *= (D ** (1 - self.beta) * q_top * self.alpha ** (1 - self.beta)
                           / (q_total * top))
-        return _Direction(D, d, mu, Z, V, P, dg, index, gmin, radius, grid, q_total, total,
-                          farthest, scattered)
+        return _Direction(D, d, mu, Z, V, P, dg, index, gmin, radius, grid, order, q_total,
+                          total, farthest, scattered)
 
     def soft_distance(self, points: np.ndarray, cloud: PointCloud) -> np.ndarray:
         """The soft distance d_cloud(x) of (2.9) for each of ``points`` (serial)."""
@@ -361,12 +362,10 @@ class SmoothHausdorff:
         mine = full[s_offset:s_offset + len(s_weights)]
         return mine[:, :3], -(1.0 / self.alpha) * (mine[:, 3] - sum_coef / d.s_total)
 
-
     def _scatter(self, d: _Direction, queries: np.ndarray, coef: np.ndarray) -> np.ndarray:
         """The source gradient's pair sums in a pass of their own (soft_source_gradient)."""
         nchunks = _chunks(len(queries))
-        grid = d.grid
-        order = grid.locality_order(queries, nchunks)
+        grid, order = d.grid, d.order
         ordered = np.ascontiguousarray(queries[order])
         if grid.local32 is not None:
             top = float(np.abs(coef).max(initial=0.0)) or 1.0  # coefficients as fractions
@@ -381,7 +380,8 @@ class SmoothHausdorff:
 
 
 def _chunks(n: int) -> int:
-    """Blocks of queries of the source-gradient sums, each with its buffers."""
+    """Blocks of queries of the pair sweeps (each with its buffers of the source sums),
+    and the parts the queries are dealt to (SourceGrid.locality_order)."""
     return max(1, min(8, n))
 
 

@@ -196,7 +196,8 @@ def _slab(xs, j0, j1, qx, qy, qz, radius, cell, box):
 def _spans(q, radius, origin, cell, shape, start, xs, box, spans, corners):
     """The sources the query's ball reaches, as the slabs (_slab) of the cells it meets:
     each slab's range (j0, j1) in ``spans`` and the query's offsets from its cell's corner
-    in ``corners``.  Returns how many, or -1 when the arrays hold too few (_more_spans)."""
+    in ``corners``.  Returns how many, and the two arrays (new ones, twice as long, where
+    the ones given held too few)."""
     x0, x1 = _cell_range(q, radius, origin, cell, shape, 0)
     y0, y1 = _cell_range(q, radius, origin, cell, shape, 1)
     r32 = _F(radius)
@@ -214,21 +215,30 @@ def _spans(q, radius, origin, cell, shape, start, xs, box, spans, corners):
                 if j1 == j0:
                     continue
                 if count == spans.shape[0]:
-                    return -1
+                    more = np.empty((2 * count, 2), dtype=np.int64)
+                    more[:count] = spans
+                    spans = more
+                    wider = np.empty((2 * count, 3), dtype=np.float32)
+                    wider[:count] = corners
+                    corners = wider
                 spans[count, 0] = j0
                 spans[count, 1] = j1
                 corners[count, 0] = qx
                 corners[count, 1] = qy
                 corners[count, 2] = qz
                 count += 1
-    return count
+    return count, spans, corners
 
 
 @numba.njit(cache=True)
-def _more_spans(spans):
-    """Span arrays twice as long as ``spans``."""
-    size = 2 * spans.shape[0]
-    return np.empty((size, 2), dtype=np.int64), np.empty((size, 3), dtype=np.float32)
+def _summed(buf):
+    """The float32 source sums of the blocks of queries, (nchunks, 4, m), summed in float64
+    as (m, 4)."""
+    total = np.zeros((buf.shape[2], 4))
+    for k in range(buf.shape[0]):
+        for c in range(4):
+            total[:, c] += buf[k, c]
+    return total
 
 
 @numba.njit(parallel=True, cache=True)
@@ -249,11 +259,8 @@ def soft_values32(queries, local, box, w, origin, cell, shape, start, gmin, radi
         corners = np.empty((256, 3), dtype=np.float32)
         for i in range(k * size, min(n, (k + 1) * size)):
             q = queries[i]
-            count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans, corners)
-            while count < 0:
-                spans, corners = _more_spans(spans)
-                count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans,
-                               corners)
+            count, spans, corners = _spans(q, radius[i], origin, cell, shape, start, xs, box,
+                                           spans, corners)
             base = _F(gmin[i])
             z = 0.0
             p = 0.0
@@ -303,22 +310,15 @@ def soft_source_gradient32(queries, local, box, origin, cell, shape, start, gmin
             if a == _ZERO:
                 continue
             q = queries[i]
-            count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans, corners)
-            while count < 0:
-                spans, corners = _more_spans(spans)
-                count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans,
-                               corners)
+            count, spans, corners = _spans(q, radius[i], origin, cell, shape, start, xs, box,
+                                           spans, corners)
             base = _F(gmin[i])
             for t in range(count):
                 j0, j1 = spans[t, 0], spans[t, 1]
                 _cell_scatter(corners[t, 0], corners[t, 1], corners[t, 2], base, a32, c32,
                               iw32, a, xs[j0:j1], ys[j0:j1], zs[j0:j1], ax[j0:j1], ay[j0:j1],
                               az[j0:j1], b[j0:j1])
-    total = np.zeros((m, 4))
-    for k in range(nchunks):
-        for c in range(4):
-            total[:, c] += buf[k, c]
-    return total
+    return _summed(buf)
 
 
 # The values and the source gradient in one sweep (soft_values_scatter32): each pair's
@@ -423,11 +423,8 @@ def soft_values_scatter32(queries, local, box, w, origin, cell, shape, start, gm
         corners = np.empty((256, 3), dtype=np.float32)
         for i in range(k * size, min(n, (k + 1) * size)):
             q = queries[i]
-            count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans, corners)
-            while count < 0:
-                spans, corners = _more_spans(spans)
-                count = _spans(q, radius[i], origin, cell, shape, start, xs, box, spans,
-                               corners)
+            count, spans, corners = _spans(q, radius[i], origin, cell, shape, start, xs, box,
+                                           spans, corners)
             pairs = 0
             for t in range(count):
                 pairs += spans[t, 1] - spans[t, 0]
@@ -475,8 +472,4 @@ def soft_values_scatter32(queries, local, box, w, origin, cell, shape, start, gm
                              ys[j0:j1], zs[j0:j1], es[at:end], fs[at:end], ax[j0:j1],
                              ay[j0:j1], az[j0:j1], b[j0:j1])
                 at = end
-    total = np.zeros((m, 4))
-    for k in range(nchunks):
-        for c in range(4):
-            total[:, c] += buf[k, c]
-    return Z, V, P, total
+    return Z, V, P, _summed(buf)
