@@ -113,7 +113,8 @@ WHY: dict[int, str] = {
        "would remove that (TRADEOFFS, 'What 1 % would take').",
     3: "A helix has no section model; the 3D run's self-reported number is a fraction of its "
        "verified one: the thin tube's optimum sits in its own mesh's discretisation error "
-       "(13 P2 elements round the tube at h 0.5; 6 at h 1.0 were 10 points stiffer than their "
+       "(8 P2 segments round the tube at h 0.5, not the 13 meant: TRADEOFFS, 'The tube's "
+       "and the shell's ring'; h 1.0 was 10 points stiffer than its "
        "refinement), and two reproductions of this config ended at nearly the same "
        "self-reported number with verified numbers far apart (TRADEOFFS, 'Two "
        "reproductions'). Removing it takes the next mesh, h 0.25: 4x the DOFs, about an hour "

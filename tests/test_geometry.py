@@ -84,6 +84,30 @@ def test_layers_through_the_wall(shared_tmp):
     assert planes == pytest.approx([-0.01, 0.0, 0.01])
 
 
+RINGS = {  # kind: (parameters, the clamped face's axis)
+    "tube": ({"length": 0.5, "radius": 1.0, "thickness": 0.05}, 0),
+    "cylinder_shell": ({"radius": 1.0, "height": 0.5, "thickness": 0.05}, 2),
+}
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("kind", sorted(RINGS))
+@pytest.mark.parametrize(("size", "layers"), [(1.0, 1), (0.5, 1), (0.5, 2), (0.25, 3)])
+def test_a_walls_ring_follows_mesh_size_and_layers(kind, size, layers, shared_tmp):
+    """The tube's and the shell's ring: 4 ceil(round(2 pi R / h) / 4) segments round (at least
+    8) and ``layers`` elements through the wall, on the face at the start of the sweep.  (The
+    ring's counts were once lost to a synchronize: 8 round and 1 layer at every size.)"""
+    params, axis = RINGS[kind]
+    mesh = load_domain(config(kind, params, size, shared_tmp, layers=layers)).mesh
+    x = mesh.geometry.x
+    face = np.concatenate(mesh.comm.allgather(np.round(x[np.abs(x[:, axis]) < 1e-9], 9)))
+    face = np.unique(face, axis=0)
+    radii = np.unique(np.round(np.linalg.norm(np.delete(face, axis, axis=1), axis=1), 6))
+    around = 4 * math.ceil(max(8, round(2 * math.pi / size)) / 4)
+    assert radii == pytest.approx(np.linspace(0.95, 1.0, layers + 1))
+    assert len(face) == around * (layers + 1)
+
+
 def test_cache_is_keyed_by_parameters(tmp_path):
     a = config("cube", {"side": 1.0}, 0.5, tmp_path)
     b = config("cube", {"side": 1.0}, 0.25, tmp_path)

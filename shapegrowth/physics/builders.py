@@ -34,7 +34,7 @@ import numpy as np
 
 from ..config import BOUNDARIES, GEOMETRY_PARAMS, Config, resolved
 
-BUILDER_VERSION = 3  # bump when a builder changes, so cached meshes are rebuilt
+BUILDER_VERSION = 4  # bump when a builder changes, so cached meshes are rebuilt
 
 
 @dataclass(frozen=True)
@@ -174,14 +174,17 @@ def _structured_ring(gmsh, r_in: float, r_out: float, n_around: int, n_wall: int
     for k in range(4):
         loop = geo.addCurveLoop([radial[k], arc_out[k], -radial[(k + 1) % 4], -arc_in[k]])
         surfaces.append(geo.addPlaneSurface([loop]))
-    geo.synchronize()
+    # The geo kernel's own settings: model-level ones (gmsh.model.mesh.setTransfinite*) are
+    # reset by the synchronize after the extrusion, which left every tube and shell with
+    # gmsh's default ring (8 segments round, 1 layer) whatever mesh.size and mesh.layers said.
     quarter = max(2, int(math.ceil(n_around / 4)))
     for c in radial:
-        gmsh.model.mesh.setTransfiniteCurve(c, n_wall + 1)
+        geo.mesh.setTransfiniteCurve(c, n_wall + 1)
     for c in arc_in + arc_out:
-        gmsh.model.mesh.setTransfiniteCurve(c, quarter + 1)
+        geo.mesh.setTransfiniteCurve(c, quarter + 1)
     for s in surfaces:
-        gmsh.model.mesh.setTransfiniteSurface(s, arrangement="Alternate")
+        geo.mesh.setTransfiniteSurface(s, arrangement="Alternate")
+    geo.synchronize()
     return surfaces
 
 
