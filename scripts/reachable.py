@@ -25,14 +25,15 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import os
 import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from reproduce import ROOT, shapegrowth_command  # noqa: E402  (a sibling script)
+from shapegrowth.commands import launch
+from shapegrowth.io.summary import RunSummary
+
+ROOT = Path(__file__).resolve().parent.parent
 
 TOLERANCE = 3.0  # the optimiser's shape error may be this multiple of the known growth's
 FLOOR = 1e-3  # ... or this fraction of the target size, where the known growth is exact
@@ -76,22 +77,24 @@ def _sets(items) -> list[str]:
 
 
 def _run(args: list[str], ranks: int, log: Path) -> None:
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     with open(log, "w") as fh:
-        done = subprocess.run(shapegrowth_command(args, ranks), stdout=fh, stderr=subprocess.STDOUT,
-                              cwd=ROOT, env=env)
+        done = launch.launch(args, ranks, one_thread=False, stdout=fh,
+                             stderr=subprocess.STDOUT, cwd=ROOT)
     if done.returncode not in (0, 1):
         raise SystemExit(f"reachable: '{' '.join(args)}' exited {done.returncode} (see {log})")
 
 
-def finished(folder: Path) -> dict | None:
-    """The run's (or the solve's) summary.json, or None before it ends."""
-    summary = folder / "summary.json"
-    return json.loads(summary.read_text()) if summary.exists() else None
+def finished(folder: Path) -> RunSummary | None:
+    """The run's (or the solve's) summary, or None before it ends."""
+    return launch.read_summary(folder)
 
 
-def relative(summary: dict) -> float:
-    return summary["hausdorff_final"] / summary["target_size"]
+def relative(summary: RunSummary) -> float:
+    """The self-reported shape error (the run's own mesh and path)."""
+    error = summary.relative_error
+    if error is None:
+        raise SystemExit(f"reachable: {summary.name} has no shape error ({summary.status})")
+    return error
 
 
 def first_below(rows: list[dict], size: float, level: float) -> tuple[int, float] | None:
@@ -123,17 +126,19 @@ def measure(case: Case, algorithm: str | None, out: Path, ranks: int, extra: lis
         run = finished(run_dir)
     with open(run_dir / "history.csv") as fh:
         rows = list(csv.DictReader(fh))
-    size = run["target_size"]
+    if known is None or run is None:
+        raise SystemExit(f"reachable: {case.name} ended without a summary (see its log.txt)")
+    size = run.target_size or 1.0
     e_known = relative(known)
     e_run = relative(run)
-    return {"case": case.name, "what": case.what, "algorithm": run["config"]["optimizer"][
+    return {"case": case.name, "what": case.what, "algorithm": run.config["optimizer"][
         "algorithm"], "default": algorithm is None, "known": e_known, "final": e_run,
         "bound": bound(e_known), "passed": e_run <= bound(e_known),
-        "iterations": run["iterations"], "status": run["status"],
+        "iterations": run.iterations, "status": str(run.status),
         "to_1pc": first_below(rows, size, 0.01), "to_03pc": first_below(rows, size, 0.003),
-        "wall_s": run["wall_time_s"],
-        "optimizer_share": run["time_split"].get("optimizer", 0.0) / run["wall_time_s"],
-        "design_dofs": run["dofs"]["design"], "state_dofs": run["dofs"]["state"]}
+        "wall_s": run.wall_time_s,
+        "optimizer_share": run.time_split.get("optimizer", 0.0) / run.wall_time_s,
+        "design_dofs": run.dofs.design, "state_dofs": run.dofs.state}
 
 
 def _when(hit) -> str:

@@ -30,15 +30,13 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
-import os
 import shutil
-import subprocess
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from shapegrowth.commands import launch
 from shapegrowth.io.summary import RunSummary
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -144,16 +142,8 @@ def selected(only: set[str], everything: bool) -> list[Scene]:
     return [scene for scene in SCENES if everything or not scene.extra]
 
 
-def finished(folder: Path) -> RunSummary | None:
-    """The run's summary.json (written when a run ends), or None."""
-    summary = folder / "summary.json"
-    return RunSummary.from_json(json.loads(summary.read_text())) if summary.exists() else None
-
-
-def shapegrowth_command(args: list[str], ranks: int) -> list[str]:
-    """The console script with ``args``, under ``mpirun -n ranks`` beyond one rank."""
-    cmd = [str(ROOT / ".venv" / "bin" / "shapegrowth"), *args]
-    return ["mpirun", "-n", str(ranks), "--oversubscribe", *cmd] if ranks > 1 else cmd
+finished = launch.read_summary  # the run's summary.json (written when a run ends), or None
+ONE_BLAS_THREAD = {"OPENBLAS_NUM_THREADS": "1"}
 
 
 def run_scene(scene: Scene, out: Path, ranks: int, overrides: list[str]) -> RunSummary | None:
@@ -164,13 +154,10 @@ def run_scene(scene: Scene, out: Path, ranks: int, overrides: list[str]) -> RunS
     args = ["run", str(ROOT / "configs" / f"{scene.config}.yaml"), "--out", str(folder)]
     if (folder / "checkpoint.h5").exists():
         args.append("--resume")
-    for item in (*scene.overrides, *overrides):
-        args += ["--set", item.format(out=out)]
-    cmd = shapegrowth_command(args, ranks)
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1")
-    print(f"reproduce: {scene.name} ({' '.join(cmd[-6:])})", flush=True)
-    subprocess.run(cmd, env=env, cwd=ROOT)
+    args = launch.with_sets(args, [item.format(out=out) for item in (*scene.overrides,
+                                                                      *overrides)])
+    print(f"reproduce: {scene.name} ({' '.join(args[-6:])})", flush=True)
+    launch.launch(args, ranks, env=ONE_BLAS_THREAD, cwd=ROOT)
     return finished(folder)
 
 
@@ -181,10 +168,8 @@ def draw_3d(scene: Scene, out: Path, ranks: int) -> None:
     folder = out / scene.name
     if scene.number > 5 or (folder / "shape3d.png").exists() or finished(folder) is None:
         return
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1")
     print(f"reproduce: drawing {scene.name} in 3D", flush=True)
-    subprocess.run(shapegrowth_command(["figure", str(folder), "-q"], ranks), env=env, cwd=ROOT)
+    launch.launch(["figure", folder, "-q"], ranks, env=ONE_BLAS_THREAD, cwd=ROOT)
 
 
 def target_floor(s: RunSummary) -> float | None:

@@ -24,31 +24,24 @@ Writes results/square_ratio/table.md (and a folder per run; resumable).
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import os
-import subprocess
 import sys
 from pathlib import Path
+
+from shapegrowth.commands import launch
+from shapegrowth.io.summary import RunSummary
 
 ROOT = Path(__file__).resolve().parents[1]
 UNIFORM = 9 * math.pi / 4  # lambda of the isotropic growth with the disk's area
 
 
-def run(config: str, out: Path, sets: list[str], ranks: int) -> dict | None:
-    summary = out / "summary.json"
-    if not summary.exists():
-        cmd = [str(ROOT / ".venv" / "bin" / "shapegrowth"), "run", str(ROOT / "configs" / config),
-               "--out", str(out), "-q"]
-        for s in sets:
-            cmd += ["--set", s]
-        if ranks > 1:
-            cmd = ["mpirun", "-n", str(ranks), "--oversubscribe", *cmd]
-        env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-                   OPENBLAS_NUM_THREADS="1")
+def run(config: str, out: Path, sets: list[str], ranks: int) -> RunSummary | None:
+    """The run's summary, run first (under mpirun beyond one rank) where there is none."""
+    if launch.read_summary(out) is None:
         print(f"square_ratio: {out.name}", flush=True)
-        subprocess.run(cmd, env=env, cwd=ROOT)
-    return json.loads(summary.read_text()) if summary.exists() else None
+        launch.launch(launch.with_sets(["run", ROOT / "configs" / config, "--out", out, "-q"],
+                                       sets), ranks, env={"OPENBLAS_NUM_THREADS": "1"}, cwd=ROOT)
+    return launch.read_summary(out)
 
 
 def floor(config: str, sets: list[str]) -> float:
@@ -100,13 +93,13 @@ def main() -> int:
     return 0
 
 
-def _rho(s: dict | None) -> float | None:
-    return None if s is None else s["rho_H_final"]
+def _rho(s: RunSummary | None) -> float | None:
+    return None if s is None else s.rho_H_final
 
 
-def _verified(s: dict | None) -> str:
-    v = (s or {}).get("verified") or {}
-    return "-" if v.get("relative") is None else f"{100 * v['relative']:.2f} %"
+def _verified(s: RunSummary | None) -> str:
+    v = None if s is None or s.verified is None else s.verified.relative
+    return "-" if v is None else f"{100 * v:.2f} %"
 
 
 def table(rows) -> list[str]:
@@ -145,11 +138,11 @@ def cube(out: Path, ranks: int) -> list[str]:
              "target's metric):", "",
              "| frame | rho_H | verified | wall s |", "|---|---:|---:|---:|"]
     for name, s in (("fixed", fixed), ("free (3 angles)", free)):
-        rho = "-" if s is None else f"{_rho(s):.4g}"
-        wall = "-" if s is None else f"{s['wall_time_s']:.0f}"
+        rho = "-" if s is None or s.rho_H_final is None else f"{s.rho_H_final:.4g}"
+        wall = "-" if s is None else f"{s.wall_time_s:.0f}"
         lines.append(f"| {name} | {rho} | {_verified(s)} | {wall} |")
-    if fixed and free:
-        lines.append(f"\nratio {_rho(fixed) / _rho(free):.3g}")
+    if fixed and free and fixed.rho_H_final and free.rho_H_final:
+        lines.append(f"\nratio {fixed.rho_H_final / free.rho_H_final:.3g}")
     return lines
 
 

@@ -7,34 +7,34 @@ one), then the run's own, their ratio, DOFs, iterations and time.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
+from shapegrowth.commands.launch import read_summary
+
 
 def row(folder: Path) -> str | None:
-    path = folder / "summary.json"
-    if not path.is_file():
+    s = read_summary(folder)
+    if s is None:
         return None
-    s = json.loads(path.read_text())
-    own = s["hausdorff_final"] / s["target_size"]
-    v = s.get("verified") or {}
-    verified = v.get("relative")
+    own = s.relative_error or 0.0
+    v = s.verified
+    verified = v.relative if v is not None else None
     ratio = f"{verified / own:.2f}" if verified is not None and own > 0 else "-"
-    shown = f"{100 * verified:.2f}" if verified is not None else v.get("status", "-")
-    lifted = v.get("lifted") or {}
-    if lifted.get("relative") is not None:
-        head = f"**{100 * lifted['relative']:.2f}** (3D, {lifted['dofs']} DOFs)"
+    shown = f"{100 * verified:.2f}" if verified is not None else (v.status if v else "-")
+    lifted = v.lifted if v is not None else None
+    if lifted is not None and lifted.relative is not None:
+        head = f"**{100 * lifted.relative:.2f}** (3D, {lifted.dofs} DOFs)"
     else:
-        head = lifted.get("status", "-")
-    if not lifted:
+        head = lifted.status if lifted is not None else "-"
+    if lifted is None:
         shown, head = f"**{shown}**" if verified is not None else shown, "-"
-    levels = s["config"]["optimizer"]["levels"]
-    checked = v.get("wall_s", 0.0) + lifted.get("wall_s", 0.0)
+    levels = s.config["optimizer"]["levels"]
+    checked = (v.wall_s if v else 0.0) + (lifted.wall_s if lifted else 0.0)
     return (f"| {folder.name} | {head} | {shown} | {100 * own:.2f} | {ratio} | "
-            f"{s['dofs']['state']} | {v.get('dofs', '-')} | {s['iterations']} | "
-            f"{list(levels)} | {s['wall_time_s'] - checked:.0f} | {checked:.0f} | "
-            f"{s['status']} |")
+            f"{s.dofs.state} | {v.dofs if v else '-'} | {s.iterations} | "
+            f"{list(levels)} | {s.wall_time_s - checked:.0f} | {checked:.0f} | "
+            f"{s.status} |")
 
 
 def main() -> None:

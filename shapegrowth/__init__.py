@@ -25,7 +25,9 @@ _API = {
     "load_config": ("shapegrowth.config", "load"),
     "config_from_dict": ("shapegrowth.config", "from_dict"),
     "Config": ("shapegrowth.config", "Config"),
-    "ConfigError": ("shapegrowth.config", "ConfigError"),
+    "ConfigError": ("shapegrowth.errors", "ConfigError"),
+    "InputError": ("shapegrowth.errors", "InputError"),
+    "StateSolveError": ("shapegrowth.errors", "StateSolveError"),
     "ForwardModel": ("shapegrowth.physics.model", "ForwardModel"),
     "build_model": ("shapegrowth.physics.model", "build_model"),
     "Growth": ("shapegrowth.physics.growth", "Growth"),
@@ -60,6 +62,8 @@ __all__ = [
     "config_from_dict",
     "Config",
     "ConfigError",
+    "InputError",
+    "StateSolveError",
     "ForwardModel",
     "build_model",
     "Growth",
@@ -94,9 +98,10 @@ if TYPE_CHECKING:
     from .commands.solve import solve_forward as solve
     from .commands.study import Sweep, pareto_front, run_study
     from .compat import evaluate_at_points as evaluate_at
-    from .config import Config, ConfigError
+    from .config import Config
     from .config import from_dict as config_from_dict
     from .config import load as load_config
+    from .errors import ConfigError, InputError, StateSolveError
     from .io.plotting import draw, surface
     from .io.summary import RunSummary
     from .optim.driver import Driver, DriverSettings

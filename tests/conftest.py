@@ -16,6 +16,30 @@ ROOT = Path(__file__).resolve().parent.parent
 CONFIGS = ROOT / "configs"
 BIN = Path(sys.executable).parent
 
+# The fast tier (`make test`, the tests not marked `slow`) must stay within minutes: a test
+# left unmarked that takes longer than this (its call, in seconds) fails the session, with its
+# name and time.  SHAPEGROWTH_FAST_LIMIT_S=0 switches the check off (a loaded machine).
+FAST_LIMIT_S = float(os.environ.get("SHAPEGROWTH_FAST_LIMIT_S", "20"))
+_too_slow: list[tuple[str, float]] = []
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    if (report.when == "call" and FAST_LIMIT_S > 0 and "slow" not in report.keywords
+            and report.duration > FAST_LIMIT_S):
+        _too_slow.append((report.nodeid, report.duration))
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    if not _too_slow:
+        return
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    if reporter is not None:
+        reporter.write_line(f"unmarked tests over {FAST_LIMIT_S:g} s (mark them slow):", red=True)
+        for nodeid, seconds in _too_slow:
+            reporter.write_line(f"  {seconds:6.1f} s  {nodeid}", red=True)
+    if exitstatus == 0:
+        session.exitstatus = 1
+
 
 @pytest.fixture
 def shared_tmp(tmp_path: Path) -> Path:
@@ -63,14 +87,12 @@ def read_json(path: Path) -> dict:
 
 
 def run_program(cmd: list[str], ranks: int = 1, **kwargs) -> subprocess.CompletedProcess:
-    """Run a command from the repository root, optionally under mpirun (as root, and
-    oversubscribed beyond the cores), capturing its output."""
-    cmd = [str(c) for c in cmd]
-    if ranks > 1:
-        cmd = ["mpirun", "-n", str(ranks), *cmd]
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMPI_MCA_rmaps_base_oversubscribe="1")
-    return subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, **kwargs)
+    """Run a command from the repository root, optionally under mpirun (the package's
+    launcher: as root, oversubscribed beyond the cores), capturing its output."""
+    from shapegrowth.commands.launch import launch
+
+    return launch([], ranks, program=cmd, one_thread=False, capture_output=True, text=True,
+                  cwd=ROOT, **kwargs)
 
 
 def run_subprocess(args: list[str], ranks: int = 1, **kwargs) -> subprocess.CompletedProcess:

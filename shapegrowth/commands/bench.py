@@ -17,10 +17,6 @@ from __future__ import annotations
 
 import json
 import logging
-import os
-import shutil
-import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -32,13 +28,14 @@ from petsc4py import PETSc
 
 from .. import compat
 from ..config import Config
+from ..errors import InputError, StateSolveError
 from ..io import files as io
-from ..optim.problem import ReducedFunctional, StateSolveError
+from ..optim.problem import ReducedFunctional
 from ..optim.verification import smooth_direction
 from ..physics.boundary import body_box
 from ..physics.model import ForwardModel
 from ..timing import Timer, peak_memory_mb
-from .solve import InputError
+from . import launch
 
 log = logging.getLogger(__name__)
 
@@ -51,7 +48,7 @@ log = logging.getLogger(__name__)
 BEAM_WAVE_GROWTH = ("((1 + (0.94*cos(2*pi*x1))**2)**0.5"
                     "*(1 - x3*(21.2*exp(-(x1/0.05)**2) - 5.92*sin(2*pi*x1))))**2")
 DEFAULT_SIZES = (0.05, 0.025, 0.0125)
-DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "configs" / "beam_wave.yaml"
+DEFAULT_CONFIG = "beam_wave.yaml"  # in launch.shipped_configs()
 DEFAULT_OVERRIDES = [f'growth.eigenvalues.initial=["{BEAM_WAVE_GROWTH}", 1.0, 1.0]']
 
 
@@ -156,30 +153,17 @@ def measure_case(cfg: Config, steps: int = 3, step_size: float = 0.01) -> dict[s
     return case
 
 
-def _mpirun(ranks: int) -> list[str]:
-    launcher = shutil.which("mpirun") or shutil.which("mpiexec")
-    if launcher is None:
-        raise InputError("bench: no mpirun on PATH for the MPI case (use --ranks 1 to skip it)")
-    return [launcher, "-n", str(ranks), "--oversubscribe"]
-
-
 def run_case_process(config: Path, overrides: list[str], size: float, out: Path,
                       ranks: int, one_thread: bool = False) -> dict[str, Any]:
     """Runs one case in a fresh process (under mpirun when ranks > 1) and reads its json.
     ``one_thread``: one BLAS and one numba thread (what each MPI rank gets)."""
     out.mkdir(parents=True, exist_ok=True)
-    cmd = [sys.executable, "-m", "shapegrowth", "bench", str(config), "--case",
-           "--out", str(out), "--quiet", "--set", f"mesh.size={size}"]
-    for item in overrides:
-        cmd += ["--set", item]
-    env = dict(os.environ)
-    if one_thread:
-        env.update({"OPENBLAS_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"})
-    if ranks > 1:
-        cmd = _mpirun(ranks) + cmd
-        env.update({"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-                    "OPENBLAS_NUM_THREADS": "1"})
-    done = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    args = launch.with_sets(["bench", config, "--case", "--out", out, "--quiet"],
+                            [f"mesh.size={size}", *overrides])
+    # under mpirun one BLAS thread per rank (numba's is set by the package per rank)
+    env = {"OPENBLAS_NUM_THREADS": "1"} if ranks > 1 else None
+    done = launch.launch(args, ranks, one_thread=one_thread, env=env, capture_output=True,
+                         text=True)
     if done.returncode != 0:
         said = [line for line in done.stderr.splitlines() if line.startswith("error: ")]
         if said:  # the case's own one-line error

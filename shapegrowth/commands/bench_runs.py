@@ -14,22 +14,17 @@ end); its time to 1 % is that of the section's own verified number, so labelled.
 from __future__ import annotations
 
 import logging
-import os
-import shutil
-import subprocess
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..io import files as io
+from ..errors import InputError
 from ..io.along import Check, first_below, read_checks
 from ..io.summary import RunSummary
-from .solve import InputError
+from . import launch
 
 log = logging.getLogger(__name__)
 
-CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 LEVELS = (0.01, 0.003)  # verified shape errors whose time is measured
 
 
@@ -106,19 +101,6 @@ def timing(case: RunCase, summary: RunSummary, checks: list[Check]) -> RunTiming
         summary.newton_iterations_total / steps, summary.peak_memory_mb)
 
 
-def _command(case: RunCase, folder: Path, ranks: int, overrides: list[str]) -> list[str]:
-    cmd = [sys.executable, "-m", "shapegrowth", "run", str(CONFIGS / case.config), "--out",
-           str(folder), "-q"]
-    for item in (*case.overrides, *overrides):
-        cmd += ["--set", item]
-    if ranks > 1:
-        launcher = shutil.which("mpirun") or shutil.which("mpiexec")
-        if launcher is None:
-            raise InputError("bench --runs: no mpirun on PATH (use --ranks 1)")
-        cmd = [launcher, "-n", str(ranks), "--oversubscribe", *cmd]
-    return cmd
-
-
 def run_runs(out: Path, ranks: int, only: list[str], overrides: list[str]) -> list[RunTiming]:
     """Every run of RUNS (or those named in ``only``), each in a process of its own; a
     finished run folder is read back, not run again."""
@@ -127,21 +109,23 @@ def run_runs(out: Path, ranks: int, only: list[str], overrides: list[str]) -> li
     if unknown:
         raise InputError(f"bench --runs: no run named {', '.join(unknown)} (the runs: "
                          f"{', '.join(sorted(names))})")
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OPENBLAS_NUM_THREADS="1")
+    configs = launch.shipped_configs()
     timings = []
     for case in RUNS:
         if only and case.name not in only:
             continue
         folder = out / "runs" / case.name
-        if not (folder / "summary.json").is_file():
+        summary = launch.read_summary(folder)
+        if summary is None:
             log.info("bench --runs: %s (%s) on %d rank(s) ...", case.name, case.what, ranks)
-            done = subprocess.run(_command(case, folder, ranks, overrides), env=env,
-                                  capture_output=True, text=True)
-            if not (folder / "summary.json").is_file():
+            args = launch.with_sets(["run", configs / case.config, "--out", folder, "-q"],
+                                    [*case.overrides, *overrides])
+            done = launch.launch(args, ranks, env={"OPENBLAS_NUM_THREADS": "1"},
+                                 capture_output=True, text=True)
+            summary = launch.read_summary(folder)
+            if summary is None:
                 raise RuntimeError(f"bench --runs: {case.name} ended without a summary "
                                    f"(exit {done.returncode}):\n{done.stderr[-3000:]}")
-        summary = RunSummary.from_json(io.read_json(folder / "summary.json"))
         timings.append(timing(case, summary, read_checks(folder / "verified.csv")))
         log.info("  %s", describe(timings[-1]))
     return timings

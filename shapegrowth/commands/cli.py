@@ -33,7 +33,7 @@ EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 log = logging.getLogger("shapegrowth")
 
 
-def _parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="shapegrowth",
         description="Shape programming by differential growth (growth-modulated Mooney-Rivlin).")
@@ -147,11 +147,15 @@ def _mesh(cfg, args) -> int:
     return EXIT_OK
 
 
+def _exit_status(summary) -> int:
+    """A summary's exit status: 1 for a failed solve or run, else 0 (CONTRACT.md)."""
+    return EXIT_FAILED if summary.status.is_failure else EXIT_OK
+
+
 def _solve(cfg, args) -> int:
     from .solve import solve_forward
 
-    _, status = solve_forward(cfg, args.out or cfg.output_dir, args.probe)
-    return status
+    return _exit_status(solve_forward(cfg, args.out or cfg.output_dir, args.probe))
 
 
 def _gradcheck(cfg, args) -> int:
@@ -166,16 +170,9 @@ def _gradcheck(cfg, args) -> int:
 
 
 def _run(cfg, args) -> int:
-    from ..io.checkpoint import ResumeError
     from .run import run_optimization
 
-    try:
-        status = run_optimization(cfg, args.out or cfg.output_dir, args.resume).exit_status
-    except ResumeError as err:
-        from .solve import InputError
-
-        raise InputError(str(err)) from None
-    return status
+    return _exit_status(run_optimization(cfg, args.out or cfg.output_dir, args.resume).summary)
 
 
 def _lift(cfg, args) -> int:
@@ -288,10 +285,10 @@ def _join_negative_values(argv: list[str]) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = _parser().parse_args(_join_negative_values(argv))
+    args = build_parser().parse_args(_join_negative_values(argv))
     from .. import logs
-    from ..config import ConfigError, load
-    from .solve import InputError
+    from ..config import load
+    from ..errors import ConfigError, InputError
 
     level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
     logs.configure(level)
@@ -299,12 +296,14 @@ def main(argv: list[str] | None = None) -> int:
         args.runs_overrides, args.overrides = args.overrides, []
     if args.command == "bench" and args.config is None:
         from .bench import DEFAULT_CONFIG, DEFAULT_OVERRIDES
+        from .launch import shipped_configs
 
-        if not DEFAULT_CONFIG.exists():
-            print("error: bench: give a CONFIG (configs/beam_wave.yaml is not beside the package)",
-                  file=sys.stderr)
+        try:
+            args.config = str(shipped_configs() / DEFAULT_CONFIG)
+        except InputError as err:
+            print(f"error: {err}", file=sys.stderr)
             return EXIT_BAD_INPUT
-        args.config, args.overrides = str(DEFAULT_CONFIG), DEFAULT_OVERRIDES + args.overrides
+        args.overrides = DEFAULT_OVERRIDES + args.overrides
     try:
         if args.command == "figure":  # the run's own config
             return _figure(args)

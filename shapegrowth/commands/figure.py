@@ -11,10 +11,10 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
+from ..errors import InputError
 from ..io.figures3d import View, write_shape3d_png
 from ..optim.objective import Objective
 from .lift import reduced_run
-from .solve import InputError
 
 log = logging.getLogger(__name__)
 

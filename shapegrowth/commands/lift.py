@@ -17,12 +17,12 @@ import logging
 from pathlib import Path
 
 from ..config import Config, from_dict
+from ..errors import InputError
 from ..io import files as io
 from ..io.summary import RunSummary
 from ..optim.lift import Lifted, lifted_model, verification_model
 from ..optim.refined import refined_config
 from ..physics.model import ForwardModel
-from .solve import InputError
 
 log = logging.getLogger(__name__)
 

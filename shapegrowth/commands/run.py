@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from .. import compat
 from ..config import load, resolved
+from ..errors import InputError, StateSolveError
 from ..io import files as io
 from ..io.along import VerifyEvery
 from ..io.checkpoint import CheckpointFile
@@ -30,10 +30,11 @@ from ..io.plotting import write_frame_png, write_shape_png
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
 from ..optim.callbacks import FromRestEvery, ProgressLog, ProgressTolerance, RetryFromRest
 from ..optim.driver import Driver, DriverSettings
-from ..optim.interface import DriverResult, Record
+from ..optim.interface import Callback, Record
 from ..optim.levels import level_config
 from ..optim.lift import check_liftable, lift, lift_growth, verification_model
-from ..optim.problem import ReducedFunctional, StateSolveError
+from ..optim.objective import ObjectiveValue
+from ..optim.problem import Evaluation, ReducedFunctional
 from ..optim.refined import (
     TOLERATED,
     Verified,
@@ -45,34 +46,115 @@ from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer
-from .solve import InputError, base_summary
+from .solve import base_summary
 
 log = logging.getLogger(__name__)
 
 
 @dataclass
 class RunResult:
-    summary: RunSummary
-    exit_status: int  # 0, or 1 for a failed run
+    summary: RunSummary  # summary.status says whether the run failed, and why
     model: ForwardModel  # left at the best design
 
 
-def _from_rest(model: ForwardModel, rf: ReducedFunctional):
-    """The objective at the current growth solved again from rest (load steps from C_g = I),
-    or None if that fails.  The optimiser reaches its equilibria by warm starts along its own
-    path; a thin body can have several, and the one reached from rest is what growing the
-    body with this growth does.  The optimiser's state is put back afterwards."""
-    state = model.state
-    kept = state.snapshot()
-    state.reset()
-    try:
-        report = state.solve()
-        value = rf.objective.evaluate(gradient=False)[0] if report.converged else None
-    finally:
-        state.restore(kept)
-    if value is None:
-        log.warning("the best growth could not be solved from rest: %s", report.reason)
-    return value
+@dataclass
+class Optimised:
+    """What the levels leave: the last level's model, reduced functional and best design
+    (this rank's part), the whole history, and how the optimisation ended."""
+
+    model: ForwardModel
+    rf: ReducedFunctional
+    best: np.ndarray
+    design_size: int
+    history: list[Record]
+    status: Outcome
+
+
+@dataclass
+class Settled:
+    """The best design solved again: its evaluation (None where no state was found there),
+    the objective of its growth grown from rest, and the exact Hausdorff distance."""
+
+    final: Evaluation | None
+    from_rest: ObjectiveValue | None
+    hausdorff: float
+    size: float
+
+    @property
+    def branch_changed(self) -> bool:
+        return branch_changed(self.from_rest.hausdorff if self.from_rest else None,
+                              self.hausdorff, self.size)
+
+
+def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
+    """Optimise ``cfg``'s growth and write every output to ``out`` (module doc): the levels,
+    the best design settled (re-solved, and grown from rest), the outputs, the verification
+    on the refined (and, for a section, the 3D) model, the summary and the closing lines."""
+    timer = Timer()
+    if not resume and MPI.COMM_WORLD.rank == 0 and (out / "verified.csv").exists():
+        (out / "verified.csv").unlink()  # a new run's checks only
+    done = optimise_levels(cfg, out, resume, timer)
+    settled = settle(done)
+    with timer("io"):
+        write_outputs(out, done)
+    verified = verify_best(cfg, done.model, settled)
+    summary = summarise(cfg, done, settled, verified, timer, resume)
+    io.write_json(out / "summary.json", summary.to_json())
+    report_run(summary, settled, out)
+    return RunResult(summary, done.model)
+
+
+# ---- the levels ------------------------------------------------------------------------------
+def optimise_levels(cfg, out: Path, resume: bool, timer: Timer) -> Optimised:
+    """Per level of ``optimizer.levels`` (one without): the model, its reduced functional
+    J(m) from the last level's design (exact: nested meshes), NLopt on J with the level's
+    callbacks.  A level that finds not one state ends the run with the last level's best."""
+    levels = cfg.optimizer.levels
+    history: list[Record] = []
+    previous: Optimised | None = None
+    checked = 0.0  # seconds of verify.every's checks so far
+    for k in range(len(levels)):
+        level_cfg = level_config(cfg, k)
+        with timer("forward"):
+            model = _level_model(cfg, level_cfg, k)
+        rf = ReducedFunctional(model, timer)
+        if previous is not None:
+            rf.carry_design(previous.rf, previous.best)
+        if len(levels) > 1:
+            log.info("level %d of %d: the mesh refined %d time(s), %d state DOFs, %d "
+                     "iterations", k + 1, len(levels), levels[k], model.state_dofs(),
+                     level_cfg.optimizer.max_iterations)
+        callbacks, along = _level_callbacks(cfg, out, resume, timer, k, rf, model, len(history),
+                                            checked)
+        driver = Driver(rf, DriverSettings.from_config(level_cfg), callbacks)
+        result = driver.run()
+        checked = along.spent if along is not None else checked
+        timer.totals["optimizer"] += result.optimizer_seconds
+        if result.outcome.is_failure and not result.history and previous is not None:
+            # not one state on this level: the last level's result is the run's (no
+            # computed result is lost), the run is reported failed with the reason
+            log.warning("level %d of %d: %s; the run ends with level %d's best design",
+                        k + 1, len(levels), result.outcome.reason, k)
+            return dataclasses.replace(previous, history=history, status=Outcome.failed(
+                f"level {k + 1} of {len(levels)}: {result.outcome.reason}"))
+        history += [dataclasses.replace(r, iteration=len(history) + i, level=k)
+                    for i, r in enumerate(result.history)]
+        previous = Optimised(model, rf, driver.local(result.best), driver.design_size, history,
+                             result.outcome)
+        if result.outcome.is_failure:
+            break
+    assert previous is not None  # at least one level
+    return previous
+
+
+def _level_model(cfg, level_cfg, k: int) -> ForwardModel:
+    """The level's model; the first level's growth started as ``growth.start`` asks."""
+    model = ForwardModel.build(level_cfg)
+    if k == 0 and cfg.growth.start == "lifted":
+        _start_lifted(model, Path(resolved(cfg.growth.from_run)))
+    if k == 0 and cfg.growth.start == "run":
+        _start_from_run(model, Path(resolved(cfg.growth.from_run)))
+    return model
 
 
 def _start_lifted(model: ForwardModel, run_dir: Path) -> None:
@@ -101,151 +183,138 @@ def _start_from_run(model: ForwardModel, run_dir: Path) -> None:
     log.info("growth.start: %s from %s", ", ".join(names), run_dir)
 
 
-def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
-    """Optimise ``cfg``'s growth and write every output to ``out`` (module doc).  Per level
-    of ``optimizer.levels`` (one without): the model, its reduced functional J(m) from the
-    last level's design, NLopt on J with the progress log, the checkpoint, the retry from
-    rest and the physical branch as callbacks; then the best growth verified."""
-    timer = Timer()
-    levels = cfg.optimizer.levels
-    history: list[Record] = []
-    previous: tuple[ReducedFunctional, np.ndarray] | None = None
-    reached: tuple[ForwardModel, ReducedFunctional, Driver, DriverResult] | None = None
-    failure: Outcome | None = None
-    checked = 0.0  # seconds of verify.every's checks so far
-    if not resume and MPI.COMM_WORLD.rank == 0 and (out / "verified.csv").exists():
-        (out / "verified.csv").unlink()  # a new run's checks only
-    for k in range(len(levels)):
-        level_cfg = level_config(cfg, k)
-        with timer("forward"):
-            model = ForwardModel.build(level_cfg)
-            if k == 0 and cfg.growth.start == "lifted":
-                _start_lifted(model, Path(resolved(cfg.growth.from_run)))
-            if k == 0 and cfg.growth.start == "run":
-                _start_from_run(model, Path(resolved(cfg.growth.from_run)))
-        rf = ReducedFunctional(model, timer)
-        if previous is not None:
-            rf.carry_design(*previous)  # exact: the level's mesh is nested in the last one's
-        if len(levels) > 1:
-            log.info("level %d of %d: the mesh refined %d time(s), %d state DOFs, %d "
-                     "iterations", k + 1, len(levels), levels[k],
-                     compat.global_size(model.state.V), level_cfg.optimizer.max_iterations)
-        path = out / ("checkpoint.h5" if k == 0 else f"checkpoint-level{k}.h5")
-        callbacks = [ProgressLog(), CheckpointFile(path, rf, cfg.output.checkpoint_every,
-                                                   resume and (k == 0 or path.is_file()), timer),
-                     RetryFromRest(rf), FromRestEvery(rf, cfg.optimizer.from_rest_every)]
-        if cfg.solver.rtol_far is not None:
-            callbacks.append(ProgressTolerance(rf, cfg.solver.rtol, cfg.solver.rtol_far,
-                                               cfg.optimizer.ftol_rel))
-        along = None
-        if cfg.verify.every:
-            along = VerifyEvery(model, cfg.verify.refine, cfg.verify.every,
-                                rf.objective.target_size, out / "verified.csv", timer, k,
-                                len(history), checked)
-            callbacks.append(along)
-        driver = Driver(rf, DriverSettings.from_config(level_cfg), callbacks)
-        result = driver.run()
-        checked = along.spent if along is not None else checked
-        timer.totals["optimizer"] += result.optimizer_seconds
-        history += [dataclasses.replace(r, iteration=len(history) + i, level=k)
-                    for i, r in enumerate(result.history)]
-        if result.outcome.is_failure and not result.history and reached is not None:
-            # not one state on this level: the last level's result is the run's (no
-            # computed result is lost), the run is reported failed with the reason
-            log.warning("level %d of %d: %s; the run ends with level %d's best design",
-                        k + 1, len(levels), result.outcome.reason, k)
-            failure = Outcome.failed(f"level {k + 1} of {len(levels)}: "
-                                     f"{result.outcome.reason}")
-            model, rf, driver, result = reached
-            break
-        reached = (model, rf, driver, result)
-        previous = (rf, driver.vec.local(result.best))
-        if result.outcome.is_failure:
-            break
-    status = failure or result.outcome
-    # leave the state at the best design for the fields and the final numbers
-    final = None
-    failed = status.is_failure
+
+def _level_callbacks(cfg, out: Path, resume: bool, timer: Timer, k: int,
+                     rf: ReducedFunctional, model: ForwardModel, done: int,
+                     checked: float) -> tuple[list[Callback], VerifyEvery | None]:
+    """The progress log, the checkpoint, the retry from rest and the physical branch; the
+    state's tolerance from the optimiser's progress (solver.rtol_far) and the checks along
+    the run (verify.every) where asked."""
+    path = out / ("checkpoint.h5" if k == 0 else f"checkpoint-level{k}.h5")
+    callbacks: list[Callback] = [
+        ProgressLog(), CheckpointFile(path, rf, cfg.output.checkpoint_every,
+                                      resume and (k == 0 or path.is_file()), timer),
+        RetryFromRest(rf), FromRestEvery(rf, cfg.optimizer.from_rest_every)]
+    if cfg.solver.rtol_far is not None:
+        callbacks.append(ProgressTolerance(rf, cfg.solver.rtol, cfg.solver.rtol_far,
+                                           cfg.optimizer.ftol_rel))
+    along = None
+    if cfg.verify.every:
+        along = VerifyEvery(model, cfg.verify.refine, cfg.verify.every, rf.target_size,
+                            out / "verified.csv", timer, k, done, checked)
+        callbacks.append(along)
+    return callbacks, along
+
+
+# ---- the best design, settled ----------------------------------------------------------------
+def settle(done: Optimised) -> Settled:
+    """The state left at the best design (for the fields and the final numbers), and that
+    growth grown from rest (what a body grown so takes)."""
+    rf, failed = done.rf, done.status.is_failure
     if failed:
         rf.restart_from_rest()  # not a warm start from the state that failed
+    final = None
     try:
-        final = rf.evaluate(driver.vec.local(result.best), gradient=False)
+        final = rf.evaluate(done.best, gradient=False)
     except StateSolveError as err:
         log.warning("could not re-solve the best design: %s", err)
-    with timer("io"):
-        io.write_history(out, history)
-        phi = io.deformation_field(model.state.u)
-        io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
-                        extra=[phi, model.residual_strain_field()])
-        io.write_growth(out / "growth.npz", model.state.applied, model.cfg.mesh.refine)
-        applied = model.state.applied
-        write_shape_png(out / "shape.png", model.state.u, applied.eigenvalues[0],
-                        rf.objective.target.points, "lambda_hat_1")
-        write_shape3d_png(out / "shape3d.png", model.cfg, model.state.u,
-                          applied.eigenvalues[0], rf.objective.target.points, "lambda_hat_1")
-        if applied.frame == "free" and applied.dim == 2:
-            write_frame_png(out / "frame.png", model.state.u, applied.eigenvalues,
-                            applied.angles[0], rf.objective.target.points)
-    # a failed run's final state was already solved from rest
-    from_rest = (final.value if failed else _from_rest(model, rf)) if final else None
-    report = final.report if final else SolveReport(converged=False, reason="no state")
-    first = history[0] if history else None
+    from_rest = None
+    if final is not None:  # a failed run's final state was already solved from rest
+        from_rest = final.value if failed else _value_from_rest(rf)
     # with rho_H at the best design; without a state there, from the clouds as they are
-    exact = final.value.hausdorff if final else rf.objective.exact_hausdorff()
-    size = rf.objective.target_size
-    changed = branch_changed(from_rest.hausdorff if from_rest else None, exact, size)
-    verified = None
-    if cfg.verify.enabled:
-        if final is None:
-            verified = Verified(None, None, cfg.verify.refine, 0, 0.0, changed,
-                                "failed: no state at the best design")
-        else:
-            log.info("verifying: the best growth on the mesh refined %d time(s), grown from rest",
-                     cfg.verify.refine)
-            verified = verify(model, cfg.verify.refine, changed)
-            if cfg.verify.lift is not None:
-                solid = verification_model(load(cfg.verify.lift), cfg.verify.lift_refine)
-                log.info("lifting: the best growth onto the 3D body of %s (its mesh refined %d "
-                         "time(s)), grown from rest",
-                         cfg.verify.lift, solid.mesh.refine)
-                verified = dataclasses.replace(verified, lifted=lift(model, solid))
-    summary = base_summary(
-        cfg, model, report, status, timer,
+    exact = final.value.hausdorff if final else rf.exact_hausdorff()
+    return Settled(final, from_rest, exact, rf.target_size)
+
+
+def _value_from_rest(rf: ReducedFunctional) -> ObjectiveValue | None:
+    value, report = rf.value_from_rest()
+    if value is None:
+        log.warning("the best growth could not be solved from rest: %s", report.reason)
+    return value
+
+
+# ---- outputs, verification, summary ----------------------------------------------------------
+def write_outputs(out: Path, done: Optimised) -> None:
+    """history.csv/png, fields.xdmf, growth.npz, shape.png, shape3d.png (frame.png for a
+    free 2D frame) at the state the best design left."""
+    model, target = done.model, done.rf.target_points
+    u, applied = model.displacement, model.applied
+    io.write_history(out, done.history)
+    io.write_fields(out / "fields.xdmf", u, applied,
+                    extra=[io.deformation_field(u), model.residual_strain_field()])
+    io.write_growth(out / "growth.npz", applied, model.cfg.mesh.refine)
+    write_shape_png(out / "shape.png", u, applied.eigenvalues[0], target, "lambda_hat_1")
+    write_shape3d_png(out / "shape3d.png", model.cfg, u, applied.eigenvalues[0], target,
+                      "lambda_hat_1")
+    if applied.frame == "free" and applied.dim == 2:
+        write_frame_png(out / "frame.png", u, applied.eigenvalues, applied.angles[0], target)
+
+
+def verify_best(cfg, model: ForwardModel, settled: Settled) -> Verified | None:
+    """The best growth on the mesh refined ``verify.refine`` times, grown from rest there,
+    and for a section lifted onto its 3D body (``verify.lift``); None with verify off."""
+    if not cfg.verify.enabled:
+        return None
+    changed = settled.branch_changed
+    if settled.final is None:
+        return Verified(None, None, cfg.verify.refine, 0, 0.0, changed,
+                        "failed: no state at the best design")
+    log.info("verifying: the best growth on the mesh refined %d time(s), grown from rest",
+             cfg.verify.refine)
+    verified = verify(model, cfg.verify.refine, changed)
+    if cfg.verify.lift is not None:
+        solid = verification_model(load(cfg.verify.lift), cfg.verify.lift_refine)
+        log.info("lifting: the best growth onto the 3D body of %s (its mesh refined %d "
+                 "time(s)), grown from rest", cfg.verify.lift, solid.mesh.refine)
+        verified = dataclasses.replace(verified, lifted=lift(model, solid))
+    return verified
+
+
+def summarise(cfg, done: Optimised, settled: Settled, verified: Verified | None, timer: Timer,
+              resume: bool) -> RunSummary:
+    model, history, final, from_rest = done.model, done.history, settled.final, settled.from_rest
+    first = history[0] if history else None
+    report = final.report if final else SolveReport(converged=False, reason="no state")
+    return base_summary(
+        cfg, model, report, done.status, timer,
         iterations=len(history),
         objective_initial=first.objective if first else None,
         objective_final=final.value.total if final else None,
         rho_H_initial=first.rho_H if first else None,
         rho_H_final=final.value.rho_H if final else None,
         hausdorff_initial=first.hausdorff if first else None,
-        hausdorff_final=exact,
-        target_size=size,
+        hausdorff_final=settled.hausdorff,
+        target_size=settled.size,
         newton_iterations_total=sum(r.newton_iterations for r in history),
-        dofs=Dofs(compat.global_size(model.state.V), driver.vec.size),
+        dofs=Dofs(model.state_dofs(), done.design_size),
         optimization=OptimizationMeasures(
-            evaluations=rf.evaluations,
+            evaluations=done.rf.evaluations,
             residual_strain=model.residual_strain_norm(),
             # the best growth applied to the body at rest: the shape a body grown so takes
             rho_H_from_rest=from_rest.rho_H if from_rest else None,
             hausdorff_from_rest=from_rest.hausdorff if from_rest else None,
             resumed=resume),
         verified=verified)
-    io.write_json(out / "summary.json", summary.to_json())
-    rel = exact / size
-    if from_rest and changed:
+
+
+def report_run(summary: RunSummary, settled: Settled, out: Path) -> None:
+    """The closing lines: the verified number first, the self-reported one labelled."""
+    size, from_rest = settled.size, settled.from_rest
+    rel = settled.hausdorff / size
+    if from_rest and settled.branch_changed:
         log.warning("the best growth applied from rest reaches another equilibrium: Hausdorff "
                     "%.4g (%.3g %%) against the optimiser's %.4g: the shape depends on the "
                     "growth path (hausdorff_from_rest in summary.json)", from_rest.hausdorff,
-                    100 * from_rest.hausdorff / size, exact)
-    _report_verified(verified, rel)
+                    100 * from_rest.hausdorff / size, settled.hausdorff)
+    _report_verified(summary.verified, rel)
     log.info("%s after %d iterations: %s; self-reported %.3g %% (own mesh, the optimiser's "
-             "path); rho_H %.4g -> %.4g", status, len(history), _verified_text(verified),
-             100 * rel, summary.rho_H_initial or float("nan"),
+             "path); rho_H %.4g -> %.4g", summary.status, summary.iterations,
+             _verified_text(summary.verified), 100 * rel, summary.rho_H_initial or float("nan"),
              summary.rho_H_final or float("nan"))
     log.info("results in %s: summary.json, history.csv, history.png, shape.png, fields.xdmf",
              out)
     log.info("view: paraview %s, Filters > Warp By Vector (displacement), colour by lambda_hat_1",
              out / "fields.xdmf")
-    return RunResult(summary, 1 if failed else 0, model)
 
 
 def _verified_text(verified: Verified | None) -> str:

@@ -11,6 +11,7 @@ import numpy as np
 
 from .. import compat
 from ..config import Config
+from ..errors import InputError
 from ..io import files as io
 from ..io.summary import Dofs, Probe, RunSummary, SolveMeasures
 from ..physics.model import ForwardModel
@@ -20,10 +21,6 @@ from ..timing import Timer, peak_memory_mb
 from ..version import __version__
 
 log = logging.getLogger(__name__)
-
-
-class InputError(ValueError):
-    """Bad input outside the config (an option, a probe); exit status 2."""
 
 
 def parse_probes(texts: list[str], dim: int) -> np.ndarray:
@@ -41,8 +38,9 @@ def parse_probes(texts: list[str], dim: int) -> np.ndarray:
 
 
 def solve_forward(cfg: Config, out: Path,
-                  probe_texts: list[str] | tuple[str, ...] = ()) -> tuple[RunSummary, int]:
-    """Forward solve with the config's initial growth; returns (summary, exit status)."""
+                  probe_texts: list[str] | tuple[str, ...] = ()) -> RunSummary:
+    """Forward solve with the config's initial growth, written to ``out``; returns its
+    summary (``status``: converged, or failed with the reason)."""
     timer = Timer()
     section = cfg.section
     n_probe = 3 if section.reduced else cfg.dim  # a section's probes are the 3D body's points
@@ -102,7 +100,7 @@ def solve_forward(cfg: Config, out: Path,
     log.info("wrote %s and %s", out / "summary.json", out / "fields.xdmf")
     log.info("view: paraview %s, then Filters > Warp By Vector (displacement)",
              out / "fields.xdmf")
-    return summary, 0 if report.converged else 1
+    return summary
 
 
 def base_summary(cfg: Config, model: ForwardModel, report: SolveReport, status: Outcome,

@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ExpressionError
+
 FUNCTIONS: dict[str, Callable[..., np.ndarray]] = {
     "sin": np.sin,
     "cos": np.cos,
@@ -42,10 +44,6 @@ _BINARY = {
 _UNARY: dict[type, Callable[[Any], Any]] = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 
 Env = Mapping[str, np.ndarray | float]
-
-
-class ExpressionError(ValueError):
-    """The text is not an allowed expression; the message says why."""
 
 
 class Expression:

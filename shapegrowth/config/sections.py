@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass
 from typing import TypeVar
 
+from ..errors import ConfigError
 from .schema import option
 
 GEOMETRY_PARAMS: dict[str, tuple[str, ...]] = {
@@ -45,14 +46,6 @@ def resolved(value: T | None) -> T:
         raise ConfigError(["config: a default was left unresolved (make configs with load, "
                            "from_dict or Config(...))"])
     return value
-
-
-class ConfigError(ValueError):
-    """One or more problems in a config; ``problems`` holds one line each."""
-
-    def __init__(self, problems: list[str]):
-        self.problems = list(problems)
-        super().__init__("\n".join(self.problems))
 
 
 @dataclass(frozen=True)

@@ -21,14 +21,11 @@ from typing import Protocol
 import numpy as np
 from mpi4py import MPI
 
+from ..errors import ResumeError
 from ..optim.interface import Answer, Callback, DriverResult, GlobalVector, Record, Step
 from ..timing import Timer
 
 log = logging.getLogger(__name__)
-
-
-class ResumeError(RuntimeError):
-    """``--resume`` cannot continue from the checkpoint there (bad input: exit status 2)."""
 
 
 class Resumable(Protocol):

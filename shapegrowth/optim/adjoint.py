@@ -34,15 +34,12 @@ import ufl
 from petsc4py import PETSc
 
 from .. import compat
+from ..errors import AdjointSolveError
 from ..physics.options import SolverOptions
 from ..physics.state import StateProblem
 from ..shape.clouds import assemble
 
 log = logging.getLogger(__name__)
-
-
-class AdjointSolveError(RuntimeError):
-    """The adjoint's linear solver did not converge (an optimisation ends on it, reported)."""
 
 
 class AdjointProblem:

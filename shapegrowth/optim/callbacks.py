@@ -10,8 +10,9 @@ from typing import Protocol
 
 import numpy as np
 
+from ..errors import StateSolveError
 from .interface import Callback, DesignProblem, Record, Step
-from .problem import Evaluation, StateSolveError
+from .problem import Evaluation
 
 log = logging.getLogger(__name__)
 

@@ -48,10 +48,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..errors import AdjointSolveError, StateSolveError
 from ..status import Outcome
-from .adjoint import AdjointSolveError
 from .interface import Callback, DesignProblem, DriverResult, GlobalVector, Record, Step
-from .problem import StateSolveError
 
 if TYPE_CHECKING:
     from ..config import Config
@@ -97,6 +96,15 @@ class Driver:
         self._callback_time = 0.0
         self._end = 0  # evaluations allowed so far (the current stage's end)
         self._over_budget = False
+
+    def local(self, x: np.ndarray) -> np.ndarray:
+        """This rank's part of a design vector of the whole body (such as a result's best)."""
+        return self.vec.local(x)
+
+    @property
+    def design_size(self) -> int:
+        """The design vector's length, all ranks."""
+        return self.vec.size
 
     # ---- NLopt's objective -----------------------------------------------------------------
     def _objective(self, x: np.ndarray, grad: np.ndarray) -> float:

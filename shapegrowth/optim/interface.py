@@ -10,8 +10,9 @@ from typing import Protocol
 import numpy as np
 from mpi4py import MPI
 
+from ..errors import StateSolveError
 from ..status import Outcome
-from .problem import Evaluation, StateSolveError
+from .problem import Evaluation
 
 
 class DesignProblem(Protocol):

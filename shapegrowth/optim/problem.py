@@ -26,6 +26,7 @@ import numpy as np
 from mpi4py import MPI
 
 from ..config import Config, resolved
+from ..errors import StateSolveError
 from ..physics.filters import HelmholtzFilter
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
@@ -35,14 +36,6 @@ from .adjoint import AdjointProblem
 from .objective import Objective, ObjectiveValue
 
 log = logging.getLogger(__name__)
-
-
-class StateSolveError(RuntimeError):
-    """The state could not be brought into equilibrium for this design."""
-
-    def __init__(self, report: SolveReport):
-        super().__init__(report.reason)
-        self.report = report
 
 
 @dataclass
@@ -164,6 +157,36 @@ class ReducedFunctional:
             interpolate_between_meshes(rho, mine)
         self.model.state.carry(source.model.state)
         self._forget()
+
+    @property
+    def target_points(self) -> np.ndarray:
+        """This rank's points of the target cloud."""
+        return self.objective.target.points
+
+    @property
+    def target_size(self) -> float:
+        """The target's largest extent (its sample points, as rho_H sees them)."""
+        return self.objective.target_size
+
+    def exact_hausdorff(self) -> float:
+        """The exact Hausdorff distance between the deformed body as it is and the target."""
+        return self.objective.exact_hausdorff()
+
+    def value_from_rest(self) -> tuple[ObjectiveValue | None, SolveReport]:
+        """The objective at the current growth grown again from rest (load steps from
+        C_g = I), or None where that finds no equilibrium, with the solve's report.  The
+        optimiser reaches its equilibria by warm starts along its own path; a thin body can
+        have several, and the one reached from rest is what growing the body with this growth
+        does.  The optimiser's state is put back afterwards."""
+        state = self.model.state
+        kept = state.snapshot()
+        state.reset()
+        try:
+            report = state.solve()
+            value = self.objective.evaluate(gradient=False)[0] if report.converged else None
+        finally:
+            state.restore(kept)
+        return value, report
 
     def set_warm_rtol(self, rtol: float | None) -> None:
         """Newton's relative tolerance for the state solves of the next designs (warm steps

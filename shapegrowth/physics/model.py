@@ -35,6 +35,20 @@ class ForwardModel:
     def comm(self) -> MPI.Comm:
         return self.domain.mesh.comm
 
+    @property
+    def displacement(self) -> dolfinx.fem.Function:
+        """The state's displacement u (Phi = X + u)."""
+        return self.state.u
+
+    @property
+    def applied(self) -> Growth:
+        """The growth the displacement is in equilibrium with."""
+        return self.state.applied
+
+    def state_dofs(self) -> int:
+        """The state's degrees of freedom, all ranks."""
+        return compat.global_size(self.state.V)
+
     def integrate(self, integrand: ufl.core.expr.Expr) -> float:
         """The integral over the reference body (2 pi R weighted for a body of revolution)."""
         form = dolfinx.fem.form(integrand * self.state.weight * self.state.dx)
