@@ -14,13 +14,14 @@ export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 export OMPI_MCA_rmaps_base_oversubscribe := 1
 MPIRUN := mpirun -n $(NP)
 
-.PHONY: reachable setup run bend test test-debian13 lint test-serial test-mpi notebooks bench reproduce reproduce-compare reference-docs clean help
+.PHONY: reachable setup run bend test test-all test-debian13 lint test-serial test-mpi test-serial-slow test-mpi-slow notebooks bench reproduce reproduce-compare reference-docs clean help
 
 help:
 	@echo "make run    - the default scene end to end (installs what is missing)"
 	@echo "make bend   - the forward model alone: a beam bent into a half circle"
-	@echo "make test   - the test suite, serial and under mpirun -n $(NP), and the notebooks"
-	@echo "make test-debian13 - the same suite in a Debian 13 root (dolfinx 0.9; root, debootstrap)"
+	@echo "make test   - the fast tier: lint, types, tests serial and under mpirun -n $(NP) (minutes)"
+	@echo "make test-all - the rest: the slow tests serial and under mpirun, and the notebooks"
+	@echo "make test-debian13 - the fast tier in a Debian 13 root (dolfinx 0.9; root, debootstrap)"
 	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
 	@echo "make bench  - the performance benchmark (results/bench/bench.json, minutes)"
 	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (about 50 min on 2 cores)"
@@ -44,8 +45,13 @@ run: setup
 bend: setup
 	$(BIN)/shapegrowth solve configs/beam_bend.yaml --probe 1,0,0
 
+# The fast tier (tests not marked `slow`; tests/conftest.py fails an unmarked test that takes
+# more than SHAPEGROWTH_FAST_LIMIT_S seconds) and the rest; CI runs both, then Debian 13's
 test: setup
-	@$(MAKE) --no-print-directory lint test-serial test-mpi notebooks
+	@$(MAKE) --no-print-directory lint test-serial test-mpi
+
+test-all: setup
+	@$(MAKE) --no-print-directory test-serial-slow test-mpi-slow notebooks
 
 # The whole suite again inside a Debian 13 root (dolfinx 0.9.0, PETSc 3.22), built once and
 # cached in ~/.cache/shapegrowth/debian13; skipped with one line where it cannot run
@@ -58,15 +64,24 @@ lint:
 	$(BIN)/ruff check shapegrowth tests scripts benchmarks notebooks
 	$(BIN)/mypy
 
+PYTEST := $(BIN)/python -m pytest -q --durations=15
+
 test-serial:
-	$(BIN)/python -m pytest -q tests
+	$(PYTEST) -m "not slow" tests
+
+test-serial-slow:
+	$(PYTEST) -m slow tests
 
 # Tests marked `mpi` run again on $(NP) ranks; the other ranks' reports go to
 # .cache/rank-N.log and are shown only if the run fails.
 # A failure on one rank only can leave the others waiting in a collective: the
 # timeout turns such a hang into a failure.
 test-mpi:
-	@OPENBLAS_NUM_THREADS=1 timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(BIN)/python -m pytest -q --color=no -m mpi tests \
+	@OPENBLAS_NUM_THREADS=1 timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(PYTEST) --color=no -m "mpi and not slow" tests \
+	  || { tail -n 40 .cache/rank-*.log; exit 1; }
+
+test-mpi-slow:
+	@OPENBLAS_NUM_THREADS=1 timeout 1800 $(MPIRUN) scripts/rank0-output.sh $(PYTEST) --color=no -m "mpi and slow" tests \
 	  || { tail -n 40 .cache/rank-*.log; exit 1; }
 
 # The notebooks: executed from their jupytext sources (the .ipynb are rewritten with

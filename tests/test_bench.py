@@ -8,6 +8,7 @@ import pytest
 from conftest import CONFIGS, read_json, run_subprocess
 
 
+@pytest.mark.slow
 def test_bench_writes_consistent_cases_ratios_and_mpi_run(tmp_path):
     done = run_subprocess(["bench", CONFIGS / "tiny" / "beam_wave.yaml", "--sizes", "0.2,0.1",
                            "--steps", "2", "--ranks", "2", "--out", tmp_path, "-q"],
@@ -49,6 +50,7 @@ def test_bench_writes_consistent_cases_ratios_and_mpi_run(tmp_path):
         one["iteration_s"] / two["iteration_s"])
 
 
+@pytest.mark.slow
 def test_bench_runs_times_a_whole_run_to_its_verified_error(tmp_path):
     """bench --runs: the free square on a coarse mesh, checked every 2 iterations: the time
     to a verified error is the run's clock at the first check below it (its verification

@@ -30,6 +30,7 @@ def test_growth_jumping_between_the_bounds_converges(tmp_path):
     assert s["status"] == "converged" and math.isfinite(s["volume_deformed"])
 
 
+@pytest.mark.slow
 def test_a_tenth_of_the_thickness_still_bends_onto_the_arc(tmp_path):
     """thickness 0.002 (the paper's beam: 0.02), kappa = 1: the tip on the arc, the error
     falling at least like h^2.5 (measured 0.035, 3.2e-3, 1.8e-4 at h = 0.05, 0.025, 0.0125)."""

@@ -21,6 +21,7 @@ def history(out: Path) -> list[dict]:
         return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(fh)]
 
 
+@pytest.mark.slow
 def test_reachable_target_is_found(tmp_path):
     """From no growth, designing lambda_1 only: measured 1.7 % relative Hausdorff error
     after 30 MMA iterations (0.45 at the start) on Debian 12's gmsh 4.11 mesh, 2.1 % on
@@ -39,6 +40,7 @@ def test_reachable_target_is_found(tmp_path):
     assert min(r["objective"] for r in rows) == pytest.approx(s["objective_final"], rel=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("algorithm", ["mma", "slsqp", "lbfgs"])
 def test_serial_and_two_ranks_give_the_same_history(algorithm, tmp_path):
     runs = []
@@ -52,6 +54,7 @@ def test_serial_and_two_ranks_give_the_same_history(algorithm, tmp_path):
     assert np.allclose(runs[1], runs[0], rtol=1e-6, atol=0)
 
 
+@pytest.mark.slow
 def test_an_alpha_schedule_sharpens_stage_by_stage(tmp_path):
     """alpha [50, 200] on 8 iterations: the first stage takes at most its share (4), the
     second the rest; history.csv records each iteration's alpha, and the run's final J is
@@ -68,6 +71,7 @@ def test_an_alpha_schedule_sharpens_stage_by_stage(tmp_path):
     assert s["objective_final"] == pytest.approx(min(last), rel=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("rtol_far", [None, 1e-6])
 def test_resume_after_sigkill_ends_identical(rtol_far, tmp_path):
     """Killed after 3 checkpoints and resumed, a run ends with the uninterrupted one's
@@ -115,6 +119,7 @@ def _checkpointed(path: Path) -> int:
         return 0
 
 
+@pytest.mark.slow
 def test_stops_on_ftol_with_status_converged(tmp_path):
     """SLSQP on the reachable arc: ftol_rel 1e-3 stops it after 46 iterations, at 0.1 %
     relative shape error."""
@@ -212,6 +217,7 @@ def test_broken_yaml_and_missing_file_through_the_cli(tmp_path, capsys):
     assert err[1] == f"error: config: file '{tmp_path / 'missing.yaml'}' not found"
 
 
+@pytest.mark.slow
 def test_a_non_finite_objective_never_reaches_the_optimiser(tmp_path, monkeypatch):
     """The guard: NaN at iteration 2 ends the run loudly, with the best design kept."""
     from shapegrowth.optim.problem import ReducedFunctional
@@ -234,6 +240,7 @@ def test_a_non_finite_objective_never_reaches_the_optimiser(tmp_path, monkeypatc
     assert s["iterations"] == 2 and np.isfinite(s["objective_final"])
 
 
+@pytest.mark.slow
 def test_nlopts_own_failure_ends_the_stage_with_its_best_design(tmp_path, monkeypatch):
     """NLopt's L-BFGS reports a line search that finds no decrease as a generic
     RuntimeError ("nlopt failure", disk_cone at iteration 80): the run keeps its best design,
@@ -286,6 +293,7 @@ def test_a_failed_adjoint_solve_ends_the_run_reported(tmp_path, monkeypatch):
     assert s["iterations"] == 1 and (tmp_path / "fields.xdmf").is_file()
 
 
+@pytest.mark.slow
 def test_a_failed_run_solves_its_best_design_again_from_rest(tmp_path, monkeypatch):
     """The adjoint breaks down at iteration 2, after iteration 1 (the best design) was the
     last one evaluated: the final state is that design solved from rest, not the cached
@@ -305,6 +313,7 @@ def test_a_failed_run_solves_its_best_design_again_from_rest(tmp_path, monkeypat
     assert np.abs(u).max() > 0.1
 
 
+@pytest.mark.slow
 def test_reproduce_writes_results_from_the_run_folders(tmp_path):
     """scripts/reproduce.py: the two square runs, the table with the fixed/free ratio, the
     figures; a second call reads the finished runs back instead of running them."""

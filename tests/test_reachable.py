@@ -27,6 +27,7 @@ def _reachable():
     return module
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(SHORT))
 def test_the_defaults_find_a_reachable_target(name, tmp_path):
     reachable = _reachable()

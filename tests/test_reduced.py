@@ -224,6 +224,7 @@ def test_the_3d_body_does_not_leave_the_section_where_the_growth_is_compatible(b
                                                                          rel=1e-8)
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_a_section_run_writes_its_growth_and_the_lifted_number_a_3d_run_starts_from(
         shared_tmp):

@@ -14,7 +14,11 @@ SCENES = {  # coarse element size for CI
 }
 
 
-@pytest.mark.parametrize("scene", list(SCENES))
+SLOW_SCENES = {"tube_helix", "disk_cone"}  # 22 s and 17 s (their first state from rest)
+
+
+@pytest.mark.parametrize("scene", [pytest.param(s, marks=[pytest.mark.slow] * (s in SLOW_SCENES))
+                                   for s in SCENES])
 def test_scene_config_runs(scene, tmp_path):
     config = CONFIGS / f"{scene}.yaml"
     assert run_cli("validate", config, "-q") == 0

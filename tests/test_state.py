@@ -120,7 +120,8 @@ def grown_helix(h: float, growth_degree: int) -> float:
         ufl.dot(exact, exact)))
 
 
-@pytest.mark.parametrize("growth_degree, min_rate", [(1, 1.7), (2, 2.8)])
+@pytest.mark.parametrize("growth_degree, min_rate", [
+    pytest.param(1, 1.7, marks=pytest.mark.slow), (2, 2.8)])
 def test_helix_grown_by_its_own_metric_converges_at_the_elements_rate(growth_degree, min_rate):
     """The exact growth of a helix (its eigenframe tilts 0.11-0.58 rad round the tube) on
     h = 1 and 0.5 (8 and 16 segments round).  Measured: P1 growth 5.2e-3 -> 1.5e-3 (rate
@@ -133,6 +134,7 @@ def test_helix_grown_by_its_own_metric_converges_at_the_elements_rate(growth_deg
     assert errors[1] < 2e-3
 
 
+@pytest.mark.slow
 def test_half_circle_tip_lands_on_the_arc(tmp_path):
     """kappa L = pi through the CLI: the tip X = (1, 0, 0) goes to (0, 0, -2/pi).
     Measured tip error 8.6e-4 at h = 0.025 with 2 layers (the make-run mesh is finer)."""

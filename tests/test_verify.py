@@ -58,6 +58,7 @@ def test_likely_cause_names_the_branch_or_the_mesh():
     assert branch_changed(None, 1.0, 10.0)
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_every_run_reports_its_verified_error(shared_tmp):
     assert run_cli("run", ARC, "--out", shared_tmp, "-q", "--set",
@@ -73,6 +74,7 @@ def test_every_run_reports_its_verified_error(shared_tmp):
     assert summary.verified is not None and summary.verified.hausdorff == v["hausdorff"]
 
 
+@pytest.mark.slow
 def test_the_verified_number_is_the_refined_model_solved_from_rest(tmp_path):
     """The same growth, judged by the study's reference (refined once, from rest), gives
     the verified number to round-off."""
@@ -113,6 +115,7 @@ def test_a_run_far_from_its_verified_error_says_why(tmp_path, monkeypatch, caplo
     assert any("likely the branch" in w and "is not the run's" in w for w in warnings), warnings
 
 
+@pytest.mark.slow
 def test_the_physical_branch_mode_solves_from_rest_every_k_iterations(tmp_path, monkeypatch):
     """``optimizer.from_rest_every: 2``: the state is dropped after every second iteration,
     so the next one is grown from rest; where the body has one equilibrium (the arc) the
@@ -140,6 +143,7 @@ def test_the_physical_branch_mode_solves_from_rest_every_k_iterations(tmp_path, 
     assert rest.summary.objective_final == pytest.approx(warm.summary.objective_final, rel=1e-7)
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_verify_every_writes_the_verified_error_along_the_run(shared_tmp):
     """verify.every: 2: verified.csv holds iterations 1 and 3, each the design just
