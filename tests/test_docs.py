@@ -1,0 +1,149 @@
+"""The docs run: every fenced code block of README.md, docs/*.md and notebooks/README.md.
+
+* Python blocks are executed, as written, from the repository root (``slow``);
+* YAML blocks parse, and a block that is a whole config validates;
+* shell blocks are checked line by line: a ``make`` target exists in the Makefile, a
+  ``shapegrowth`` command line parses with the CLI's own parser and names files that exist,
+  a script exists.  A shell block runs for minutes to hours (``make run``, a reproduction),
+  so none is executed; each says why in a ``<!-- not run: REASON -->`` line above it.
+* README's module table names every module of the package.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import yaml
+from conftest import ROOT
+
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), ROOT / "notebooks" / "README.md"]
+NOT_RUN = re.compile(r"<!-- not run: (.+?) -->")
+FENCE = re.compile(r"^```(\w*)\s*$")
+
+
+@dataclass(frozen=True)
+class Block:
+    path: Path
+    line: int  # of the opening fence, from 1
+    lang: str
+    text: str
+    not_run: str | None  # the reason given above it, if any
+
+    @property
+    def id(self) -> str:
+        return f"{self.path.relative_to(ROOT)}:{self.line}"
+
+
+def blocks(paths: list[Path] = DOCS) -> list[Block]:
+    found = []
+    for path in paths:
+        lines = path.read_text().splitlines()
+        i = 0
+        while i < len(lines):
+            opening = FENCE.match(lines[i])
+            if not opening:
+                i += 1
+                continue
+            end = next(j for j in range(i + 1, len(lines)) if lines[j].startswith("```"))
+            before = [text for text in lines[:i] if text.strip()]
+            marker = NOT_RUN.search(before[-1]) if before else None
+            found.append(Block(path, i + 1, opening.group(1), "\n".join(lines[i + 1:end]),
+                               marker.group(1) if marker else None))
+            i = end + 1
+    return found
+
+
+def _of(*langs: str) -> list[Block]:
+    return [b for b in blocks() if b.lang in langs]
+
+
+def test_the_docs_have_blocks_of_each_kind():
+    kinds = {b.lang for b in blocks()}
+    assert {"python", "yaml", "bash"} <= kinds
+
+
+def test_every_shell_block_runs_or_says_why_not():
+    """None is executed (minutes to hours each): each names its reason."""
+    missing = [b.id for b in _of("bash", "sh") if not b.not_run]
+    assert not missing, f"shell blocks without '<!-- not run: REASON -->': {missing}"
+
+
+def _make_targets() -> set[str]:
+    text = (ROOT / "Makefile").read_text()
+    return set(re.findall(r"^([A-Za-z0-9_-]+):", text, flags=re.MULTILINE))
+
+
+def _command_lines(block: Block) -> list[list[str]]:
+    out = []
+    for raw in block.text.replace("\\\n", " ").splitlines():  # continuation lines joined
+        line = raw.split(" #")[0].strip() if not raw.strip().startswith("#") else ""
+        if line:
+            out.append(shlex.split(line))
+    return out
+
+
+@pytest.mark.parametrize("block", _of("bash", "sh"), ids=lambda b: b.id)
+def test_shell_lines_name_real_targets_commands_and_files(block):
+    from shapegrowth.commands.cli import build_parser
+
+    targets = _make_targets()
+    for words in _command_lines(block):
+        if words[0] == "mpirun":  # mpirun -n N [--oversubscribe] PROGRAM ...
+            words = words[3:] if words[1] == "-n" else words[1:]
+            words = [w for w in words if w != "--oversubscribe"]
+        program, args = words[0], words[1:]
+        if program in ("make",):
+            for target in (a for a in args if "=" not in a):
+                assert target in targets, f"{block.id}: no make target {target!r}"
+        elif program.endswith("bin/shapegrowth"):
+            if any(a.isupper() for a in args):
+                continue  # a synopsis (CONFIG, DIR), not a command line
+            build_parser().parse_args(args)  # an unknown option exits (status 2)
+            for a in args:
+                if a.endswith((".yaml", ".yml")):
+                    assert (ROOT / a).is_file(), f"{block.id}: {a} does not exist"
+        elif program.endswith("bin/python") and args and args[0].endswith(".py"):
+            assert (ROOT / args[0]).is_file(), f"{block.id}: {args[0]} does not exist"
+
+
+@pytest.mark.parametrize("block", _of("yaml"), ids=lambda b: b.id)
+def test_yaml_blocks_parse_and_whole_configs_validate(block):
+    from shapegrowth.config import from_dict
+
+    data = yaml.safe_load(block.text)
+    assert isinstance(data, dict) and data, block.id
+    if "name" in data and "geometry" in data:  # a whole config, not a fragment
+        from_dict(data)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("block", _of("python"), ids=lambda b: b.id)
+def test_python_blocks_run_as_written(block, tmp_path):
+    if block.not_run:
+        pytest.skip(block.not_run)
+    script = tmp_path / "block.py"
+    script.write_text(block.text + "\n")
+    done = subprocess.run([sys.executable, str(script)], cwd=ROOT, capture_output=True,
+                          text=True, timeout=900, env={**os.environ, "MPLBACKEND": "Agg"})
+    assert done.returncode == 0, f"{block.id}\n{done.stderr[-3000:]}"
+
+
+def test_readme_module_table_names_every_module():
+    text = (ROOT / "README.md").read_text()
+    table = text.split("## Where things are", 1)[1].split("\n## ", 1)[0]
+    named = set(re.findall(r"`([\w/]+\.py)`", table))
+    # a row may name siblings by file name alone: `bench.py` (`bench_runs.py`, ...)
+    package = ROOT / "shapegrowth"
+    modules = {str(p.relative_to(package)) for p in package.rglob("*.py")
+               if p.name not in ("__init__.py", "__main__.py")}
+    missing = {m for m in modules if m not in named and Path(m).name not in named}
+    assert not missing, f"README's module table lacks {sorted(missing)}"
+    stale = {n for n in named if "/" in n and n not in modules}
+    assert not stale, f"README's module table names modules that do not exist: {sorted(stale)}"
