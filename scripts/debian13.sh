@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# `make test-debian13`: the whole suite (`make test`: lint, serial, mpirun -n 2, notebooks)
+# `make test-debian13`: the fast tier (`make test`: lint, types, serial, mpirun -n 2)
 # inside a Debian 13 (trixie) root with Debian's FEniCSx (dolfinx 0.9.0, ufl 2024.2,
 # basix 0.9, PETSc 3.22), beside the Debian 12 platform the checkout itself runs on.
 #
@@ -12,7 +12,26 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 ROOT=${SHAPEGROWTH_DEBIAN13_ROOT:-$HOME/.cache/shapegrowth/debian13}
-MIRROR=${SHAPEGROWTH_DEBIAN13_MIRROR:-http://deb.debian.org/debian}
+# The archive comes from this machine's own apt sources (a mirror or proxy the machine is set
+# up for), or from SHAPEGROWTH_DEBIAN13_MIRROR
+host_mirror() {
+  local codename uri
+  codename=$(. /etc/os-release 2>/dev/null && echo "${VERSION_CODENAME:-}")
+  [ -n "$codename" ] || return 0
+  # one-line sources: deb [options] URI SUITE COMPONENTS...
+  uri=$(cat /etc/apt/sources.list /etc/apt/sources.list.d/*.list 2>/dev/null \
+        | sed -E 's/\[[^]]*\]//' \
+        | awk -v s="$codename" '$1 == "deb" && $3 == s {print $2; exit}' || true)
+  if [ -z "$uri" ]; then  # deb822 stanzas: URIs and Suites, separated by blank lines
+    uri=$(cat /etc/apt/sources.list.d/*.sources 2>/dev/null | awk -v s="$codename" '
+      /^[[:space:]]*$/ {if (u != "" && hit) {print u; exit}; u = ""; hit = 0; next}
+      /^URIs:/ {u = $2}
+      /^Suites:/ {for (i = 2; i <= NF; i++) if ($i == s) hit = 1}
+      END {if (u != "" && hit) print u}' | head -n 1 || true)
+  fi
+  echo "$uri"
+}
+MIRROR=${SHAPEGROWTH_DEBIAN13_MIRROR:-$(host_mirror)}
 # The packages of scripts/setup.sh, plus make for the Makefile and Debian's numba (built
 # against Debian's numpy, so pip finds numba there and fetches none)
 PACKAGES="python3-dolfinx-real python3-gmsh python3-nlopt python3-h5py python3-venv
@@ -35,12 +54,22 @@ if [ ! -f "$ROOT/.shapegrowth-ready" ]; then
     apt-get install -y -q --no-install-recommends debootstrap >/dev/null \
       || skip "debootstrap could not be installed (apt-get install debootstrap failed)"
   fi
-  echo "test-debian13: building the Debian 13 root in $ROOT (about 3 minutes, once)"
+  [ -n "$MIRROR" ] || skip "no Debian archive in this machine's apt sources; set SHAPEGROWTH_DEBIAN13_MIRROR"
+  # apt's proxy, if the machine has one, for debootstrap's downloads and the root's apt
+  eval "$(apt-config shell HTTP_PROXY_APT Acquire::http::Proxy 2>/dev/null || true)"
+  if [ -n "${HTTP_PROXY_APT:-}" ]; then
+    export http_proxy=${http_proxy:-$HTTP_PROXY_APT}
+  fi
+  echo "test-debian13: building the Debian 13 root in $ROOT from $MIRROR (about 3 minutes, once)"
   rm -rf "$ROOT.partial"
   mkdir -p "$(dirname "$ROOT")"
   debootstrap --variant=minbase trixie "$ROOT.partial" "$MIRROR" > "$ROOT.log" 2>&1 \
     || { tail -n 20 "$ROOT.log"; echo "test-debian13: debootstrap failed (log: $ROOT.log)"; exit 1; }
   cp /etc/resolv.conf "$ROOT.partial/etc/resolv.conf"
+  # the machine's apt settings that name a proxy go into the root's apt as they are
+  grep -lis proxy /etc/apt/apt.conf.d/* 2>/dev/null | while read -r f; do
+    cp "$f" "$ROOT.partial/etc/apt/apt.conf.d/"
+  done || true
   # shellcheck disable=SC2086
   chroot "$ROOT.partial" /usr/bin/env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin \
     DEBIAN_FRONTEND=noninteractive bash -c \
