@@ -105,8 +105,16 @@ def simplex_quadrature(dim: int, degree: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def reference_quadrature(mesh, degree: int) -> tuple[np.ndarray, np.ndarray]:
-    """The same on the mesh's reference cell (later dolfinx has ``mesh.basix_cell()``)."""
-    return simplex_quadrature(mesh.topology.dim, degree)
+    """Points and weights of basix's default quadrature of ``degree`` on the mesh's reference
+    cell: triangle, tetrahedron, quadrilateral or hexahedron (0.5.2's CellType names them as
+    basix does; later dolfinx has ``mesh.basix_cell()``)."""
+    cell = basix.cell.string_to_type(mesh.topology.cell_type.name)
+    return basix.make_quadrature(cell, degree)
+
+
+def geometry_degree(mesh) -> int:
+    """The degree of the mesh's coordinate element (2 for 27-node hexahedra)."""
+    return int(mesh.geometry.cmap.degree)
 
 
 def vector_space(mesh, degree: int):

@@ -74,6 +74,11 @@ class MeshConfig:
     refine: int = option("uniform refinements of the built mesh (each cell split in 4 in 2D, "
                          "8 in 3D; nested, so fields of the coarse mesh carry over exactly)",
                          0, ge=0, le=3)
+    cells: str = option(
+        "cell kind: 'simplex' (triangles in 2D, tetrahedra in 3D) or 'hex' (second-order "
+        "quadrilaterals in 2D, hexahedra in 3D, 9 and 27 nodes; structured, `layers` through "
+        "the thickness; `refine` regenerates the mesh with every count doubled, nested)",
+        "simplex", choices=("simplex", "hex"))
     cache_dir: str = option("folder of the mesh cache", "meshes")
 
 

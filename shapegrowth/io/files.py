@@ -1,8 +1,9 @@
 """Files a run leaves behind: summary.json and fields.xdmf (+ .h5) for ParaView.
 
-XDMF in dolfinx 0.5 stores degree-1 Lagrange fields, so P2 displacements and
-degree-2 growth fields are interpolated to P1 for viewing (the solution itself
-is not changed).  In ParaView, open fields.xdmf with the "Xdmf3ReaderT" reader
+XDMF stores a value at every node of the mesh's geometry, so the fields are interpolated to
+Lagrange of the geometry's degree for viewing: P1 on straight simplices (P2 displacements and
+degree-2 growth fields lose their mid-edge values there), Q2 on 27-node hexahedra (the
+solution itself is not changed).  In ParaView, open fields.xdmf with the "Xdmf3ReaderT" reader
 and apply "Warp By Vector" with ``displacement`` to see the deformed body.
 """
 
@@ -53,18 +54,20 @@ def _clean(value: Any) -> Any:
 
 
 def to_p1(f: dolfinx.fem.Function, name: str | None = None) -> dolfinx.fem.Function:
-    """A degree-1 copy of a scalar or vector Lagrange function."""
+    """A copy of a scalar or vector Lagrange function of the mesh's geometry degree: degree 1,
+    or 2 on a second-order (hexahedral) mesh, whose XDMF holds a value at every node."""
     mesh = f.function_space.mesh
     vector = f.function_space.dofmap.index_map_bs > 1
-    space = compat.vector_space(mesh, 1) if vector else compat.scalar_space(mesh, 1)
+    degree = compat.geometry_degree(mesh)
+    space = compat.vector_space(mesh, degree) if vector else compat.scalar_space(mesh, degree)
     g = dolfinx.fem.Function(space, name=name or f.name)
     g.interpolate(f)
     return g
 
 
 def eigenvector_fields(growth: Growth) -> list[dolfinx.fem.Function]:
-    """v_1..v_N of C_g as P1 vector fields."""
-    space = compat.vector_space(growth.mesh, 1)
+    """v_1..v_N of C_g as vector fields of the mesh's geometry degree (to_p1)."""
+    space = compat.vector_space(growth.mesh, compat.geometry_degree(growth.mesh))
     vectors = growth.vectors()
     if growth.section is not None:  # a section's 3D frame, seen in its plane
         a, b = growth.section.axes

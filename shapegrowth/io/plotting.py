@@ -36,8 +36,7 @@ def surface(u: dolfinx.fem.Function, field: dolfinx.fem.Function | None = None) 
     else:
         entities = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
         dim = tdim
-    nodes = compat.entities_to_geometry(mesh, dim, entities)
-    nodes = nodes[:, :3]  # the corners (straight-sided geometry)
+    nodes = _triangles(compat.entities_to_geometry(mesh, dim, entities))
     x = mesh.geometry.x
     used = np.unique(nodes)
     pieces = comm.allgather((x[used], nodes, used))
@@ -55,6 +54,24 @@ def surface(u: dolfinx.fem.Function, field: dolfinx.fem.Function | None = None) 
     shift[:, :disp.shape[1]] = disp
     values = None if field is None else compat.evaluate_at_points(field, X)[:, 0]
     return Surface(X, X + shift, tri, values)
+
+
+# Triangles of a facet (or 2D cell) from its geometry nodes in dolfinx's order: a quadrilateral
+# is tensor-product ordered (corners (0,0) (1,0) (0,1) (1,1), then the edges' mid-nodes on
+# edges 0-1, 0-2, 1-3, 2-3, then the centre), so a 9-node one is split through its mid-nodes
+# into 8 triangles that follow its curvature
+_SPLITS = {
+    3: [(0, 1, 2)],
+    4: [(0, 1, 3), (0, 3, 2)],
+    9: [(0, 4, 8), (0, 8, 5), (4, 1, 6), (4, 6, 8), (5, 8, 7), (5, 7, 2), (8, 6, 3), (8, 3, 7)],
+}
+
+
+def _triangles(nodes: np.ndarray) -> np.ndarray:
+    """(m, 3) triangles of facets or cells given by their geometry nodes (rows); a 6-node
+    triangle by its corners (straight-sided)."""
+    split = _SPLITS.get(nodes.shape[1], _SPLITS[3])
+    return np.concatenate([nodes[:, list(t)] for t in split]) if len(nodes) else nodes[:, :3]
 
 
 def draw(ax, surf: Surface, deformed: bool = True, cmap: str = "viridis",

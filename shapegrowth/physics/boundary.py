@@ -19,6 +19,7 @@ import dolfinx.mesh
 import numpy as np
 from mpi4py import MPI
 
+from .. import compat
 from .geometry import Domain
 
 
@@ -47,10 +48,21 @@ def body_box(mesh) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
+def vertex_coordinates(mesh) -> np.ndarray:
+    """Coordinates of this rank's mesh vertices (ghosts included).  A second-order geometry
+    (27-node hexahedra) has nodes that are not vertices, where no pin can sit."""
+    if compat.geometry_degree(mesh) == 1:
+        return mesh.geometry.x
+    mesh.topology.create_connectivity(0, mesh.topology.dim)
+    imap = mesh.topology.index_map(0)
+    vertices = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+    return mesh.geometry.x[compat.entities_to_geometry(mesh, 0, vertices).ravel()]
+
+
 def best_vertex(mesh, key) -> np.ndarray:
     """Coordinates of the mesh vertex with the smallest ``key(x) -> (n, k)`` row
     (compared lexicographically), the same on every rank and for every partition."""
-    x = mesh.geometry.x
+    x = vertex_coordinates(mesh)
     if len(x):
         keys = np.round(key(x), 12)
         order = np.lexsort((x[:, 2], x[:, 1], x[:, 0], *keys.T[::-1]))

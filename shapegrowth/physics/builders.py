@@ -51,7 +51,7 @@ class _Dimensions:
     side: float = math.nan
 
 
-def _dims(cfg: Config) -> _Dimensions:
+def dims(cfg: Config) -> _Dimensions:
     geo = cfg.geometry
     return _Dimensions(**{k: float(resolved(getattr(geo, k))) for k in GEOMETRY_PARAMS[geo.kind]})
 
@@ -72,7 +72,7 @@ def build(cfg: Config, path: Path) -> None:
             _section(gmsh, cfg, h)
         else:
             builders[geo.kind](gmsh, cfg, h)
-        _physical_groups(gmsh, cfg)
+        physical_groups(gmsh, cfg)
         gmsh.model.mesh.generate(cfg.model.dim)
         for _ in range(cfg.mesh.refine):
             gmsh.model.mesh.refine()
@@ -82,12 +82,12 @@ def build(cfg: Config, path: Path) -> None:
         gmsh.finalize()
 
 
-def _count(extent: float, h: float, minimum: int = 1) -> int:
+def count(extent: float, h: float, minimum: int = 1) -> int:
     return max(minimum, int(round(extent / h)))
 
 
 def _box(gmsh, cfg: Config, h: float) -> None:
-    g = _dims(cfg)
+    g = dims(cfg)
     occ = gmsh.model.occ
     rect = occ.addRectangle(0.0, -g.width / 2, -g.thickness / 2, g.length, g.width)
     occ.extrude([(2, rect)], 0, 0, g.thickness, numElements=[cfg.mesh.layers])
@@ -120,7 +120,7 @@ def _graded_towards(gmsh, curves: list[int], h_min: float, h: float, rate: float
 
 
 def _annulus(gmsh, cfg: Config, h: float) -> None:
-    g = _dims(cfg)
+    g = dims(cfg)
     occ = gmsh.model.occ
     outer = occ.addDisk(0, 0, -g.thickness / 2, g.radius, g.radius)
     inner = occ.addDisk(0, 0, -g.thickness / 2, g.inner_radius, g.inner_radius)
@@ -139,12 +139,12 @@ def _extent(gmsh, dim: int, tag: int) -> float:
     return max(box[3] - box[0], box[4] - box[1], box[5] - box[2])
 
 
-def _graded_layers(extent: float, h: float, cfg: Config) -> tuple[list[int], list[float]]:
+def graded_layers(extent: float, h: float, cfg: Config) -> tuple[list[int], list[float]]:
     """Layers of an extrusion over ``extent`` from the clamped end: uniform of about h, or,
     with mesh.clamp_size, clamp_size at the start growing by mesh.grading per unit length
     up to h (gmsh's numElements and cumulative heights)."""
     if cfg.mesh.clamp_size is None:
-        return [_count(extent, h)], []
+        return [count(extent, h)], []
     ends, x = [], 0.0
     while x < extent * (1 - 1e-9):
         x += min(h, cfg.mesh.clamp_size + cfg.mesh.grading * x)
@@ -154,7 +154,7 @@ def _graded_layers(extent: float, h: float, cfg: Config) -> tuple[list[int], lis
     return [1] * len(ends), [min(e / extent, 1.0) for e in ends[:-1]] + [1.0]
 
 
-def _structured_ring(gmsh, r_in: float, r_out: float, n_around: int, n_wall: int,
+def structured_ring(gmsh, r_in: float, r_out: float, n_around: int, n_wall: int,
                      plane: str) -> list[int]:
     """Four transfinite quarter-ring surfaces (geo kernel) in the plane 'yz' or 'xy'."""
     geo = gmsh.model.geo
@@ -189,24 +189,24 @@ def _structured_ring(gmsh, r_in: float, r_out: float, n_around: int, n_wall: int
 
 
 def _tube(gmsh, cfg: Config, h: float) -> None:
-    g = _dims(cfg)
-    n_around = _count(2 * math.pi * g.radius, h, minimum=8)
-    surfaces = _structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
+    g = dims(cfg)
+    n_around = count(2 * math.pi * g.radius, h, minimum=8)
+    surfaces = structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
                                 cfg.mesh.layers, plane="yz")
-    count, heights = _graded_layers(g.length, h, cfg)  # from X1 = 0, the clamp
+    numbers, heights = graded_layers(g.length, h, cfg)  # from X1 = 0, the clamp
     gmsh.model.geo.extrude([(2, s) for s in surfaces], g.length, 0, 0,
-                           numElements=count, heights=heights)
+                           numElements=numbers, heights=heights)
     gmsh.model.geo.synchronize()
 
 
 def _cylinder_shell(gmsh, cfg: Config, h: float) -> None:
-    g = _dims(cfg)
-    n_around = _count(2 * math.pi * g.radius, h, minimum=8)
-    surfaces = _structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
+    g = dims(cfg)
+    n_around = count(2 * math.pi * g.radius, h, minimum=8)
+    surfaces = structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
                                 cfg.mesh.layers, plane="xy")
-    count, heights = _graded_layers(g.height, h, cfg)  # from X3 = 0, the bottom rim
+    numbers, heights = graded_layers(g.height, h, cfg)  # from X3 = 0, the bottom rim
     gmsh.model.geo.extrude([(2, s) for s in surfaces], 0, 0, g.height,
-                           numElements=count, heights=heights)
+                           numElements=numbers, heights=heights)
     gmsh.model.geo.synchronize()
 
 
@@ -219,7 +219,7 @@ def _section(gmsh, cfg: Config, h: float) -> None:
     * annulus: R in [R1, R2], Z in [-t/2, t/2], swept along R from the inner rim;
     * cylinder_shell: R in [R - t, R], Z in [0, height], swept along Z from the bottom rim.
     """
-    g, geo = _dims(cfg), gmsh.model.geo
+    g, geo = dims(cfg), gmsh.model.geo
     if cfg.geometry.kind == "cylinder_shell":
         start, across, along = (g.radius - g.thickness, 0.0), (g.thickness, 0.0), g.height
         sweep = (0.0, 1.0)
@@ -232,13 +232,13 @@ def _section(gmsh, cfg: Config, h: float) -> None:
     line = geo.addLine(a, b)
     # the geo kernel's own setting: a model-level one is reset by the next synchronize
     geo.mesh.setTransfiniteCurve(line, cfg.mesh.layers + 1)
-    count, heights = _graded_layers(along, h, cfg)
+    numbers, heights = graded_layers(along, h, cfg)
     geo.extrude([(1, line)], sweep[0] * along, sweep[1] * along, 0.0,
-                numElements=count, heights=heights)
+                numElements=numbers, heights=heights)
     geo.synchronize()
 
 
-def _even_count(extent: float, h: float) -> int:
+def even_count(extent: float, h: float) -> int:
     """Divisions of a side: about extent/h, even so that the centre is a vertex."""
     return 2 * max(1, int(round(extent / h / 2)))
 
@@ -261,23 +261,23 @@ def _structured(gmsh, n: int) -> None:
 
 
 def _rectangle(gmsh, cfg: Config, h: float) -> None:
-    s = _dims(cfg).side
+    s = dims(cfg).side
     gmsh.model.occ.addRectangle(-s / 2, -s / 2, 0.0, s, s)
     gmsh.model.occ.synchronize()
-    _structured(gmsh, _even_count(s, h))
+    _structured(gmsh, even_count(s, h))
 
 
 def _cube(gmsh, cfg: Config, h: float) -> None:
-    s = _dims(cfg).side
+    s = dims(cfg).side
     gmsh.model.occ.addBox(-s / 2, -s / 2, -s / 2, s, s, s)
     gmsh.model.occ.synchronize()
-    _structured(gmsh, _even_count(s, h))
+    _structured(gmsh, even_count(s, h))
 
 
 def _boundary_name(kind: str, cfg: Config, lo: np.ndarray, hi: np.ndarray,
                    tol: float) -> str | None:
     """Name of the boundary entity with bounding box [lo, hi], from its position."""
-    g = _dims(cfg)
+    g = dims(cfg)
     flat = [i for i in range(3) if hi[i] - lo[i] < tol]
     if kind in ("box", "cube", "rectangle"):
         if kind == "box":
@@ -309,7 +309,7 @@ def _boundary_name(kind: str, cfg: Config, lo: np.ndarray, hi: np.ndarray,
     return None
 
 
-def _physical_groups(gmsh, cfg: Config) -> None:
+def physical_groups(gmsh, cfg: Config) -> None:
     kind, dim = cfg.geometry.kind, cfg.model.dim
     names = BOUNDARIES[kind]
     tol = 1e-6 * max(v for v in cfg.expression_params.values())
@@ -340,5 +340,5 @@ def _section_box(cfg: Config, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarra
     """The 3D bounding box of a section's edge with bounding box [lo, hi] in mesh coordinates:
     X2 spans the box's width (it is not one of the edge's flat directions); a body of
     revolution's edge stands at theta = 0."""
-    span = _dims(cfg).width / 2 if cfg.geometry.kind == "box" else 0.0
+    span = dims(cfg).width / 2 if cfg.geometry.kind == "box" else 0.0
     return (np.array([lo[0], -span, lo[1]]), np.array([hi[0], span, hi[1]]))

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
 
 from ..config import BOUNDARIES, GEOMETRY_PARAMS, LAYERED, Config, ConfigError, resolved
 from .builders import BUILDER_VERSION, build
+from .hex_builders import build_hex
 
 log = logging.getLogger(__name__)
 
@@ -51,6 +52,8 @@ def _params(cfg: Config) -> dict[str, float | int | str]:
         params["layers"] = cfg.mesh.layers
     if cfg.mesh.refine:
         params["refine"] = cfg.mesh.refine
+    if cfg.mesh.cells != "simplex":  # simplex meshes keep the keys they had
+        params["cells"] = cfg.mesh.cells
     if cfg.mesh.clamp_size is not None:
         params["clamp_size"], params["grading"] = cfg.mesh.clamp_size, cfg.mesh.grading
     return params
@@ -70,7 +73,8 @@ def ensure_mesh(cfg: Config, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[Path, boo
     if comm.rank == 0 and not path.is_file():
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_suffix(f".{os.getpid()}.tmp.msh")
-        build(cfg, tmp)
+        # hexahedra: structured, second order, refined by regenerating (hex_builders.py)
+        (build_hex if cfg.mesh.cells == "hex" else build)(cfg, tmp)
         os.replace(tmp, path)  # atomic: a concurrent reader never sees half a file
         path.with_suffix(".json").write_text(json.dumps(_params(cfg), indent=1))
         built = True

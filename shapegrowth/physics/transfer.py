@@ -16,6 +16,7 @@ from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from .. import compat
+from .boundary import body_box
 
 
 def interpolate_between_meshes(source: dolfinx.fem.Function, target: dolfinx.fem.Function,
@@ -34,6 +35,10 @@ def interpolate_between_meshes(source: dolfinx.fem.Function, target: dolfinx.fem
         mapped = to_source(points)
         points = np.zeros((len(mapped), 3))
         points[:, :mapped.shape[1]] = mapped
+    # a node of a nested mesh can lie outside the other mesh by round-off (a regenerated hex
+    # mesh's far end at 1 - 1e-16): points are held inside the source's bounding box
+    lo, hi = body_box(source.function_space.mesh)
+    points = np.clip(points, lo, hi)
     values = compat.evaluate_at_points(source, points)  # (n, block size)
     missing = np.isnan(values[:, 0])
     if missing.all():
