@@ -230,3 +230,20 @@ def test_a_run_on_hexahedra_writes_its_fields_and_figures(shared_tmp):
     assert 'TopologyType="Hexahedron_27"' in text
     for name in ("shape.png", "shape3d.png", "history.png"):
         assert (shared_tmp / name).stat().st_size > 0
+
+
+@pytest.mark.slow
+def test_a_study_on_hexahedra_judges_each_point_on_the_regenerated_mesh(tmp_path):
+    """shapegrowth study with --reference mesh.refine=1 on hexahedra: each point's optimum
+    solved again on its own mesh regenerated with every count doubled."""
+    assert run_cli("study", CONFIGS / "tiny" / "beam_wave.yaml", "--out", tmp_path, "-q",
+                   "--sweep", "growth.filter_length=0.0,0.05", "--reference", "mesh.refine=1",
+                   "--set", "mesh.cells=hex", "--set", f"mesh.cache_dir={tmp_path}",
+                   "--set", "optimizer.max_iterations=2") == 0
+    rows = (tmp_path / "study.csv").read_text().splitlines()
+    assert len(rows) == 3
+    header = rows[0].split(",")
+    for row in rows[1:]:
+        values = dict(zip(header, row.split(",")))
+        assert values["status"] == "max_iterations"
+        assert float(values["hausdorff_reference"]) > 0

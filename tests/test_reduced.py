@@ -171,17 +171,20 @@ def test_the_growth_of_a_cone_grows_the_cone():
 
 
 @pytest.mark.mpi
+@pytest.mark.parametrize("cells", ["simplex", "hex"])
 @pytest.mark.parametrize("path, sets, expression", [
     (WAVE, ["model.reduction=plane_stress"], lambda x: 1 + 0.5 * x[2] + 0.2 * x[0]),
     (DISK, [], lambda x: 1 + 0.1 * np.hypot(x[0], x[1]) - 0.5 * x[2])])
-def test_the_lift_carries_a_linear_growth_onto_the_3d_nodes_exactly(path, sets, expression):
-    """A growth linear in the section's coordinates, (X1, X3) or (R, Z), is a P1 field of the
-    section; lifted, each 3D node holds the expression at its own point."""
+def test_the_lift_carries_a_linear_growth_onto_the_3d_nodes_exactly(path, sets, expression,
+                                                                     cells):
+    """A growth linear in the section's coordinates, (X1, X3) or (R, Z), is a P1 (Q1) field
+    of the section; lifted (extruded or revolved, triangles onto tetrahedra or
+    quadrilaterals onto hexahedra), each 3D node holds the expression at its own point."""
     text = ("1 + 0.5*x3 + 0.2*x1" if path == WAVE else "1 + 0.1*r - 0.5*x3")
-    reduced = sg.load_config(path, ["model.dim=2", *sets,
+    reduced = sg.load_config(path, ["model.dim=2", *sets, f"mesh.cells={cells}",
                                     f"growth.eigenvalues.initial=['{text}', 1.1, 0.9]"])
     solid_sets = ["mesh.size=0.2", "mesh.layers=1"] if path == DISK else []
-    solid = sg.load_config(path, ["model.dim=3", "model.plane=null",
+    solid = sg.load_config(path, ["model.dim=3", "model.plane=null", f"mesh.cells={cells}",
                                   "model.reduction=plane_strain", *solid_sets])
     model2, model3 = sg.build_model(reduced), sg.build_model(solid)
     lift_growth(reduced, model2.growth, model3)
