@@ -108,7 +108,7 @@ def reference_quadrature(mesh, degree: int) -> tuple[np.ndarray, np.ndarray]:
     """Points and weights of basix's default quadrature of ``degree`` on the mesh's reference
     cell: triangle, tetrahedron, quadrilateral or hexahedron (0.5.2's CellType names them as
     basix does; later dolfinx has ``mesh.basix_cell()``)."""
-    cell = basix.cell.string_to_type(mesh.topology.cell_type.name)
+    cell = getattr(basix.CellType, mesh.topology.cell_type.name)  # 0.9 has no string_to_type
     return basix.make_quadrature(cell, degree)
 
 

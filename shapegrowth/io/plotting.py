@@ -29,14 +29,13 @@ def surface(u: dolfinx.fem.Function, field: dolfinx.fem.Function | None = None) 
     and coloured by the scalar ``field`` (both evaluated at the vertices)."""
     mesh = u.function_space.mesh
     comm, tdim = mesh.comm, mesh.topology.dim
-    if tdim == 3:
+    if tdim == 3:  # the boundary facets by their vertices
         mesh.topology.create_connectivity(tdim - 1, tdim)
         entities = dolfinx.mesh.exterior_facet_indices(mesh.topology)
-        dim = tdim - 1
-    else:
-        entities = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
-        dim = tdim
-    nodes = _triangles(compat.entities_to_geometry(mesh, dim, entities))
+        nodes = _triangles(compat.entities_to_geometry(mesh, tdim - 1, entities))
+    else:  # the cells by all their geometry nodes (a 9-node quadrilateral follows its curve)
+        owned = mesh.topology.index_map(tdim).size_local
+        nodes = _triangles(compat.geometry_nodes(mesh)[:owned])
     x = mesh.geometry.x
     used = np.unique(nodes)
     pieces = comm.allgather((x[used], nodes, used))
