@@ -27,6 +27,7 @@ group; its tag is its position in that list plus one.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -219,22 +220,31 @@ def _section(gmsh, cfg: Config, h: float) -> None:
     * annulus: R in [R1, R2], Z in [-t/2, t/2], swept along R from the inner rim;
     * cylinder_shell: R in [R - t, R], Z in [0, height], swept along Z from the bottom rim.
     """
+    swept_section(gmsh, cfg, cfg.mesh.layers, lambda along: graded_layers(along, h, cfg))
+
+
+def swept_section(gmsh, cfg: Config, layers: int,
+                  sweep: Callable[[float], tuple[list[int], list[float]]],
+                  recombine: bool = False) -> None:
+    """A section (``_section``): ``layers`` elements across, ``sweep(length)`` gives gmsh's
+    numElements and heights along; ``recombine``: quadrilaterals."""
     g, geo = dims(cfg), gmsh.model.geo
     if cfg.geometry.kind == "cylinder_shell":
         start, across, along = (g.radius - g.thickness, 0.0), (g.thickness, 0.0), g.height
-        sweep = (0.0, 1.0)
+        direction = (0.0, 1.0)
     else:
         r0 = 0.0 if cfg.geometry.kind == "box" else g.inner_radius
         length = g.length if cfg.geometry.kind == "box" else g.radius - g.inner_radius
-        start, across, along, sweep = (r0, -g.thickness / 2), (0.0, g.thickness), length, (1.0, 0.0)
+        start, across, along = (r0, -g.thickness / 2), (0.0, g.thickness), length
+        direction = (1.0, 0.0)
     a = geo.addPoint(start[0], start[1], 0.0)
     b = geo.addPoint(start[0] + across[0], start[1] + across[1], 0.0)
     line = geo.addLine(a, b)
     # the geo kernel's own setting: a model-level one is reset by the next synchronize
-    geo.mesh.setTransfiniteCurve(line, cfg.mesh.layers + 1)
-    numbers, heights = graded_layers(along, h, cfg)
-    geo.extrude([(1, line)], sweep[0] * along, sweep[1] * along, 0.0,
-                numElements=numbers, heights=heights)
+    geo.mesh.setTransfiniteCurve(line, layers + 1)
+    numbers, heights = sweep(along)
+    geo.extrude([(1, line)], direction[0] * along, direction[1] * along, 0.0,
+                numElements=numbers, heights=heights, recombine=recombine)
     geo.synchronize()
 
 

@@ -29,7 +29,15 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..config import Config
-from .builders import count, dims, even_count, graded_layers, physical_groups, structured_ring
+from .builders import (
+    count,
+    dims,
+    even_count,
+    graded_layers,
+    physical_groups,
+    structured_ring,
+    swept_section,
+)
 
 
 def build_hex(cfg: Config, path: Path) -> None:
@@ -189,19 +197,5 @@ def _cube(gmsh, cfg: Config, h: float, split: int) -> None:
 
 def _section(gmsh, cfg: Config, h: float, split: int) -> None:
     """The 2D section of ``builders._section`` in quadrilaterals."""
-    g, geo = dims(cfg), gmsh.model.geo
-    if cfg.geometry.kind == "cylinder_shell":
-        start, across, along = (g.radius - g.thickness, 0.0), (g.thickness, 0.0), g.height
-        sweep = (0.0, 1.0)
-    else:
-        r0 = 0.0 if cfg.geometry.kind == "box" else g.inner_radius
-        length = g.length if cfg.geometry.kind == "box" else g.radius - g.inner_radius
-        start, across, along, sweep = (r0, -g.thickness / 2), (0.0, g.thickness), length, (1.0, 0.0)
-    a = geo.addPoint(start[0], start[1], 0.0)
-    b = geo.addPoint(start[0] + across[0], start[1] + across[1], 0.0)
-    line = geo.addLine(a, b)
-    geo.mesh.setTransfiniteCurve(line, cfg.mesh.layers * split + 1)
-    numbers, heights = _sweep(along, h, cfg, split)
-    geo.extrude([(1, line)], sweep[0] * along, sweep[1] * along, 0.0, numElements=numbers,
-                heights=heights, recombine=True)
-    geo.synchronize()
+    swept_section(gmsh, cfg, cfg.mesh.layers * split, lambda along: _sweep(along, h, cfg, split),
+                  recombine=True)
