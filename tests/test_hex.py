@@ -249,3 +249,17 @@ def test_a_study_on_hexahedra_judges_each_point_on_the_regenerated_mesh(tmp_path
         values = dict(zip(header, row.split(",")))
         assert values["status"] == "max_iterations"
         assert float(values["hausdorff_reference"]) > 0
+
+
+@pytest.mark.mpi
+def test_mesh_quality_reports_cells_layers_and_aspect_ratios(shared_tmp):
+    """The box 1 x 0.2 x 0.1 at h 0.1 with 2 layers: 10 x 2 x 2 cells of 0.1 x 0.1 x 0.05,
+    each of aspect ratio 2; `shapegrowth mesh` prints the same line."""
+    from shapegrowth.physics.geometry import mesh_quality
+
+    cfg = hex_config("box", shared_tmp)
+    quality = mesh_quality(load_domain(cfg), cfg)
+    assert (quality.cells, quality.cell_type, quality.geometry_degree) == (40, "hexahedron", 2)
+    assert quality.layers == 2
+    assert quality.aspect_median == pytest.approx(2.0) and quality.aspect_max == pytest.approx(2.0)
+    assert "40 hexahedron cells of degree 2, 2 through the thickness" in quality.describe()

@@ -52,9 +52,11 @@ def test_uniform_growth_is_stress_free_with_volume_ratio(dim, lam, stress_tol, s
 
 
 @pytest.mark.mpi
-def test_axial_growth_of_a_clamped_tube_elongates_exactly(shared_tmp):
+@pytest.mark.parametrize("cells", ["simplex", "hex"])
+def test_axial_growth_of_a_clamped_tube_elongates_exactly(cells, shared_tmp):
     s = 1.1
-    assert run_cli("solve", TUBE, "--out", shared_tmp, "-q",
+    assert run_cli("solve", TUBE, "--out", shared_tmp, "-q", "--set", f"mesh.cells={cells}",
+                   "--set", f"mesh.cache_dir={shared_tmp}",
                    "--set", f"growth.eigenvalues.initial=[{s**2}, 1, 1]",
                    "--probe", "2,0,0.45", "--probe", "1,0.45,0") == 0
     summary = read_json(shared_tmp / "summary.json")
@@ -211,11 +213,13 @@ def test_residual_strain_tells_compatible_from_incompatible_growth(tmp_path):
 
 
 @pytest.mark.mpi
-def test_uniaxial_traction_gives_the_homogeneous_stretch(shared_tmp):
+@pytest.mark.parametrize("cells", ["simplex", "hex"])
+def test_uniaxial_traction_gives_the_homogeneous_stretch(cells, shared_tmp):
     """Opposite tractions on the two X1 faces of a free cube: F = diag(a, b, b) with
     P11(F) = s and P22 = P33 = 0 from the closed form (5.9)."""
     s = 0.4
-    assert run_cli("solve", CUBE, "--out", shared_tmp, "-q",
+    assert run_cli("solve", CUBE, "--out", shared_tmp, "-q", "--set", f"mesh.cells={cells}",
+                   "--set", f"mesh.cache_dir={shared_tmp}",
                    "--set", f"loads.traction={{x1_max: [{s}, 0, 0], x1_min: [{-s}, 0, 0]}}",
                    "--probe", "0.5,0,0", "--probe", "-0.5,0,0") == 0
     summary = read_json(shared_tmp / "summary.json")
@@ -231,14 +235,16 @@ def test_uniaxial_traction_gives_the_homogeneous_stretch(shared_tmp):
 
 
 @pytest.mark.mpi
-def test_body_force_is_balanced_by_the_clamp():
+@pytest.mark.parametrize("cells", ["simplex", "hex"])
+def test_body_force_is_balanced_by_the_clamp(cells, shared_tmp):
     """Internal forces sum to zero, so the clamp's reactions sum to -f |Omega|."""
     import dolfinx.fem.petsc
     from mpi4py import MPI
 
     cfg = from_dict({"name": "bf", "geometry": {"kind": "box", "length": 1.0, "width": 0.2,
                                                 "thickness": 0.1},
-                     "mesh": {"size": 0.1, "layers": 1}, "model": {"degree": 1},
+                     "mesh": {"size": 0.1, "layers": 1, "cells": cells,
+                              "cache_dir": str(shared_tmp)}, "model": {"degree": 1},
                      "boundary": {"clamp": "x1_min"}, "loads": {"body_force": [0.3, 0.0, -0.05]}})
     model = ForwardModel.build(cfg)
     assert model.state.solve().converged

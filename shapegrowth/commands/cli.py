@@ -140,10 +140,11 @@ def _validate(cfg, args) -> int:
 
 
 def _mesh(cfg, args) -> int:
-    from ..physics.geometry import load_domain
+    from ..physics.geometry import load_domain, mesh_quality
 
     domain = load_domain(cfg)
     log.info("mesh: %s", domain.path)
+    log.info("mesh: %s", mesh_quality(domain, cfg).describe())
     return EXIT_OK
 
 

@@ -116,3 +116,52 @@ def check_cells(mesh, flat: float = 1e-8) -> None:
         raise ConfigError([f"mesh.size: {bad} of {len(every)} cells are flat or collapsed "
                            f"(volume below {flat:g} of the median); refine the mesh or check "
                            "the geometry"])
+
+
+# The edges of each reference cell by its vertices, in dolfinx's numbering (the first nodes of
+# a cell's geometry are its vertices, whatever its degree)
+_EDGES = {
+    "triangle": [(0, 1), (0, 2), (1, 2)],
+    "tetrahedron": [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)],
+    "quadrilateral": [(0, 1), (0, 2), (1, 3), (2, 3)],
+    "hexahedron": [(0, 1), (0, 2), (0, 4), (1, 3), (1, 5), (2, 3), (2, 6), (3, 7), (4, 5),
+                   (4, 6), (5, 7), (6, 7)],
+}
+
+
+@dataclass(frozen=True)
+class MeshQuality:
+    """What a thin wall's mesh is made of: its cells, their aspect ratios (longest over
+    shortest edge of each cell: a wall meshed with cells many thicknesses long has large
+    ones), and, for a layered body, the elements through its thickness as built."""
+
+    cells: int
+    cell_type: str
+    geometry_degree: int
+    aspect_median: float
+    aspect_max: float
+    layers: int | None  # elements through the wall or thickness (layered bodies)
+
+    def describe(self) -> str:
+        through = f", {self.layers} through the thickness" if self.layers else ""
+        return (f"{self.cells} {self.cell_type} cells of degree {self.geometry_degree}"
+                f"{through}; aspect ratio median {self.aspect_median:.3g}, "
+                f"max {self.aspect_max:.3g}")
+
+
+def mesh_quality(domain: Domain, cfg: Config) -> MeshQuality:
+    """The quality of ``domain``'s mesh (collective)."""
+    from ..compat import geometry_degree, geometry_nodes
+
+    mesh = domain.mesh
+    tdim = mesh.topology.dim
+    name = mesh.topology.cell_type.name
+    owned = mesh.topology.index_map(tdim).size_local
+    x = mesh.geometry.x[geometry_nodes(mesh)[:owned]]
+    edges = np.stack([np.linalg.norm(x[:, a] - x[:, b], axis=1) for a, b in _EDGES[name]],
+                     axis=1)
+    ratios = edges.max(axis=1) / edges.min(axis=1)
+    every = np.concatenate(mesh.comm.allgather(ratios))
+    return MeshQuality(int(len(every)), name, geometry_degree(mesh),
+                       float(np.median(every)), float(every.max()),
+                       cfg.mesh.layers if cfg.geometry.kind in LAYERED else None)
