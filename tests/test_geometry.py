@@ -238,3 +238,18 @@ def test_two_builds_partition_the_mesh_alike(shared_tmp):
     assert np.array_equal(first.geometry.x, second.geometry.x)
     sizes = MPI.COMM_WORLD.allgather(n)
     assert max(sizes) - min(sizes) <= 1  # equal blocks of the cell order
+
+
+@pytest.mark.mpi
+def test_a_mesh_that_fails_to_build_fails_on_every_rank(shared_tmp, monkeypatch):
+    """Rank 0 builds; where gmsh fails there, every rank raises the error instead of waiting
+    for a mesh that never comes (a run on 2 ranks hung so)."""
+    from shapegrowth.physics import geometry
+
+    def failing(cfg, path):
+        raise ValueError("no mesh today")
+
+    monkeypatch.setattr(geometry, "build", failing)
+    cfg = config("cube", {"side": 1.0}, 0.3, shared_tmp)
+    with pytest.raises(RuntimeError, match="no mesh today"):
+        geometry.ensure_mesh(cfg)

@@ -69,16 +69,21 @@ def mesh_path(cfg: Config) -> Path:
 def ensure_mesh(cfg: Config, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[Path, bool]:
     """Build the mesh file on rank 0 unless cached; returns (path, built_now)."""
     path = mesh_path(cfg)
-    built = False
+    built, failure = False, ""
     if comm.rank == 0 and not path.is_file():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(f".{os.getpid()}.tmp.msh")
-        # hexahedra: structured, second order, refined by regenerating (hex_builders.py)
-        (build_hex if cfg.mesh.cells == "hex" else build)(cfg, tmp)
-        os.replace(tmp, path)  # atomic: a concurrent reader never sees half a file
-        path.with_suffix(".json").write_text(json.dumps(_params(cfg), indent=1))
-        built = True
-    built = comm.bcast(built, root=0)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(f".{os.getpid()}.tmp.msh")
+            # hexahedra: structured, second order, refined by regenerating (hex_builders.py)
+            (build_hex if cfg.mesh.cells == "hex" else build)(cfg, tmp)
+            os.replace(tmp, path)  # atomic: a concurrent reader never sees half a file
+            path.with_suffix(".json").write_text(json.dumps(_params(cfg), indent=1))
+            built = True
+        except Exception as err:  # every rank raises it, none waits for a mesh (a hang)
+            failure = f"{type(err).__name__}: {err}"
+    built, failure = comm.bcast((built, failure), root=0)
+    if failure:
+        raise RuntimeError(f"building the mesh of {cfg.name} failed: {failure}")
     comm.barrier()
     return path, built
 

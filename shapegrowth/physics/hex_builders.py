@@ -45,30 +45,86 @@ def build_hex(cfg: Config, path: Path) -> None:
 
     gmsh places the mid-nodes of a second-order cell from the cell itself, while the next
     refinement's vertices inside a curved wall come from its transfinite map: the two do not
-    coincide (by up to 2e-3 on a tube of radius 0.5 at h 0.1).  So every node is moved onto the
-    vertex of the linear mesh with every count doubled that it approximates (at most a small
-    fraction of a cell away): the nodes of refinement r are then the vertices of the linear
-    mesh of counts 2^(r+1), and each refinement's nodes contain the last one's (nested)."""
+    coincide (by up to half the finer spacing across a thin tube's wall at h 1).  So each
+    node is put where the linear mesh with every count doubled has its vertex: the cell's
+    corners are vertices of both; an edge's mid-node is the finer vertex next to both ends of
+    the edge, a face's centre the finer vertex next to two opposite edges' mid-nodes, the
+    cell's centre the one next to two opposite faces' centres (gmsh's node order).  The nodes
+    of refinement r are then the vertices of the linear mesh of counts 2^(r+1), and each
+    refinement's nodes contain the last one's (nested)."""
     import gmsh
 
     split = 2 ** cfg.mesh.refine
+    dim = cfg.model.dim
     gmsh.initialize()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
-        vertices = _generate(gmsh, cfg, 2 * split, order=1)[1]
+        vertex_tags, vertices = _generate(gmsh, cfg, 2 * split, order=1)
+        neighbours = _vertex_graph(gmsh, dim, vertex_tags)
         gmsh.clear()
-        tags, nodes = _generate(gmsh, cfg, split, order=2)
-        distance, nearest = cKDTree(vertices).query(nodes)
-        spacing = cKDTree(vertices).query(vertices, k=2)[0][:, 1].min()
-        if distance.max() > 0.25 * spacing:
-            raise RuntimeError(f"hex mesh of {cfg.geometry.kind}: a second-order node is "
-                               f"{distance.max():.3g} from the finer mesh's nearest vertex")
-        for tag, point in zip(tags, vertices[nearest]):
-            gmsh.model.mesh.setNode(int(tag), list(point), [])
+        _generate(gmsh, cfg, split, order=2)
+        placed = _place_nodes(gmsh, dim, vertices, neighbours)
+        for tag, point in placed.items():
+            gmsh.model.mesh.setNode(tag, list(point), [])
         gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
         gmsh.write(str(path))
     finally:
         gmsh.finalize()
+
+
+# gmsh's first-order cells' edges, and its second-order cells' node roles: each non-corner
+# node of a 27-node hexahedron (9-node quadrilateral) by the two nodes it lies between
+_LINEAR_EDGES = {
+    3: [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5),
+        (2, 6), (3, 7)],
+    2: [(0, 1), (1, 2), (2, 3), (3, 0)],
+}
+_BETWEEN = {
+    3: [(8, 0, 1), (9, 0, 3), (10, 0, 4), (11, 1, 2), (12, 1, 5), (13, 2, 3), (14, 2, 6),
+        (15, 3, 7), (16, 4, 5), (17, 4, 7), (18, 5, 6), (19, 6, 7),
+        (20, 9, 11), (21, 8, 16), (22, 9, 17), (23, 11, 18), (24, 13, 19), (25, 16, 19),
+        (26, 20, 25)],
+    2: [(4, 0, 1), (5, 1, 2), (6, 2, 3), (7, 3, 0), (8, 4, 6)],
+}
+
+
+def _vertex_graph(gmsh, dim: int, tags: np.ndarray) -> list[set[int]]:
+    """Each vertex's neighbours (indices into ``tags``) along the linear mesh's cell edges."""
+    index = {int(t): i for i, t in enumerate(tags)}
+    neighbours: list[set[int]] = [set() for _ in tags]
+    for kind, _, nodes in zip(*gmsh.model.mesh.getElements(dim)):
+        corners = gmsh.model.mesh.getElementProperties(kind)[3]
+        cells = np.asarray(nodes).reshape(-1, corners)
+        for a, b in _LINEAR_EDGES[dim]:
+            for u, v in zip(cells[:, a], cells[:, b]):
+                i, j = index[int(u)], index[int(v)]
+                neighbours[i].add(j)
+                neighbours[j].add(i)
+    return neighbours
+
+
+def _place_nodes(gmsh, dim: int, vertices: np.ndarray,
+                 neighbours: list[set[int]]) -> dict[int, np.ndarray]:
+    """Every node of the second-order mesh (tag -> position) at its finer linear vertex."""
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    coords = np.asarray(coords).reshape(-1, 3)
+    scale = float(np.ptp(vertices, axis=0).max())
+    distance, nearest = cKDTree(vertices).query(coords)
+    at = {int(t): int(n) for t, n, d in zip(tags, nearest, distance) if d < 1e-9 * scale}
+    for _, _, nodes in zip(*gmsh.model.mesh.getElements(dim)):
+        cells = np.asarray(nodes).reshape(-1, 27 if dim == 3 else 9)
+        for cell in cells:
+            corners = [at.get(int(t)) for t in cell[:2 ** dim]]
+            if any(c is None for c in corners):
+                raise RuntimeError("hex mesh: a cell's corner is not a vertex of the finer mesh")
+            found = {k: int(c) for k, c in enumerate(corners) if c is not None}
+            for node, a, b in _BETWEEN[dim]:
+                common = neighbours[found[a]] & neighbours[found[b]]
+                if len(common) != 1:
+                    raise RuntimeError("hex mesh: the finer mesh is not structured there")
+                found[node] = common.pop()
+                at[int(cell[node])] = found[node]
+    return {tag: vertices[i] for tag, i in at.items()}
 
 
 def _generate(gmsh, cfg: Config, split: int, order: int) -> tuple[np.ndarray, np.ndarray]:
