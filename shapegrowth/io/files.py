@@ -53,7 +53,7 @@ def _clean(value: Any) -> Any:
     return value
 
 
-def to_p1(f: dolfinx.fem.Function, name: str | None = None) -> dolfinx.fem.Function:
+def viewable(f: dolfinx.fem.Function, name: str | None = None) -> dolfinx.fem.Function:
     """A copy of a scalar or vector Lagrange function of the mesh's geometry degree: degree 1,
     or 2 on a second-order (hexahedral) mesh, whose XDMF holds a value at every node."""
     mesh = f.function_space.mesh
@@ -66,7 +66,7 @@ def to_p1(f: dolfinx.fem.Function, name: str | None = None) -> dolfinx.fem.Funct
 
 
 def eigenvector_fields(growth: Growth) -> list[dolfinx.fem.Function]:
-    """v_1..v_N of C_g as vector fields of the mesh's geometry degree (to_p1)."""
+    """v_1..v_N of C_g as vector fields of the mesh's geometry degree (viewable)."""
     space = compat.vector_space(growth.mesh, compat.geometry_degree(growth.mesh))
     vectors = growth.vectors()
     if growth.section is not None:  # a section's 3D frame, seen in its plane
@@ -83,10 +83,10 @@ def eigenvector_fields(growth: Growth) -> list[dolfinx.fem.Function]:
 def write_fields(path: Path, displacement: dolfinx.fem.Function, growth: Growth,
                  extra: Sequence[dolfinx.fem.Function] = ()) -> None:
     """fields.xdmf: displacement, growth eigenvalues (and angles), eigenvectors."""
-    functions = [to_p1(displacement, "displacement")]
-    functions += [to_p1(f) for f in growth.fields]
+    functions = [viewable(displacement, "displacement")]
+    functions += [viewable(f) for f in growth.fields]
     functions += eigenvector_fields(growth)
-    functions += [to_p1(f) for f in extra]
+    functions += [viewable(f) for f in extra]
     compat.write_xdmf(path, displacement.function_space.mesh, functions)
 
 

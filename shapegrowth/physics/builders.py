@@ -155,9 +155,15 @@ def graded_layers(extent: float, h: float, cfg: Config) -> tuple[list[int], list
     return [1] * len(ends), [min(e / extent, 1.0) for e in ends[:-1]] + [1.0]
 
 
-def structured_ring(gmsh, r_in: float, r_out: float, n_around: int, n_wall: int,
-                     plane: str) -> list[int]:
-    """Four transfinite quarter-ring surfaces (geo kernel) in the plane 'yz' or 'xy'."""
+def ring_quarter(cfg: Config, h: float) -> int:
+    """Segments of each quarter of a wall's ring: about 2 pi R / (4 h), at least 2 (8 round)."""
+    return max(2, int(math.ceil(count(2 * math.pi * dims(cfg).radius, h, minimum=8) / 4)))
+
+
+def structured_ring(gmsh, r_in: float, r_out: float, quarter: int, n_wall: int,
+                    plane: str) -> list[int]:
+    """Four transfinite quarter-ring surfaces (geo kernel) in the plane 'yz' or 'xy',
+    ``quarter`` segments each, ``n_wall`` through the wall."""
     geo = gmsh.model.geo
 
     def point(r: float, angle: float) -> int:
@@ -178,7 +184,6 @@ def structured_ring(gmsh, r_in: float, r_out: float, n_around: int, n_wall: int,
     # The geo kernel's own settings: model-level ones (gmsh.model.mesh.setTransfinite*) are
     # reset by the synchronize after the extrusion, which left every tube and shell with
     # gmsh's default ring (8 segments round, 1 layer) whatever mesh.size and mesh.layers said.
-    quarter = max(2, int(math.ceil(n_around / 4)))
     for c in radial:
         geo.mesh.setTransfiniteCurve(c, n_wall + 1)
     for c in arc_in + arc_out:
@@ -191,9 +196,8 @@ def structured_ring(gmsh, r_in: float, r_out: float, n_around: int, n_wall: int,
 
 def _tube(gmsh, cfg: Config, h: float) -> None:
     g = dims(cfg)
-    n_around = count(2 * math.pi * g.radius, h, minimum=8)
-    surfaces = structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
-                                cfg.mesh.layers, plane="yz")
+    surfaces = structured_ring(gmsh, g.radius - g.thickness, g.radius, ring_quarter(cfg, h),
+                               cfg.mesh.layers, plane="yz")
     numbers, heights = graded_layers(g.length, h, cfg)  # from X1 = 0, the clamp
     gmsh.model.geo.extrude([(2, s) for s in surfaces], g.length, 0, 0,
                            numElements=numbers, heights=heights)
@@ -202,9 +206,8 @@ def _tube(gmsh, cfg: Config, h: float) -> None:
 
 def _cylinder_shell(gmsh, cfg: Config, h: float) -> None:
     g = dims(cfg)
-    n_around = count(2 * math.pi * g.radius, h, minimum=8)
-    surfaces = structured_ring(gmsh, g.radius - g.thickness, g.radius, n_around,
-                                cfg.mesh.layers, plane="xy")
+    surfaces = structured_ring(gmsh, g.radius - g.thickness, g.radius, ring_quarter(cfg, h),
+                               cfg.mesh.layers, plane="xy")
     numbers, heights = graded_layers(g.height, h, cfg)  # from X3 = 0, the bottom rim
     gmsh.model.geo.extrude([(2, s) for s in surfaces], 0, 0, g.height,
                            numElements=numbers, heights=heights)

@@ -35,6 +35,7 @@ from .builders import (
     even_count,
     graded_layers,
     physical_groups,
+    ring_quarter,
     structured_ring,
     swept_section,
 )
@@ -183,10 +184,9 @@ def _box(gmsh, cfg: Config, h: float, split: int) -> None:
 def _walled(gmsh, cfg: Config, h: float, split: int, plane: str, axis_length: float) -> None:
     """The tube's or the shell's structured ring swept along its axis."""
     g, geo = dims(cfg), gmsh.model.geo
-    n_around = count(2 * math.pi * g.radius, h, minimum=8)
-    quarter = max(2, int(math.ceil(n_around / 4))) * split
-    surfaces = structured_ring(gmsh, g.radius - g.thickness, g.radius, 4 * quarter,
-                                cfg.mesh.layers * split, plane=plane)
+    surfaces = structured_ring(gmsh, g.radius - g.thickness, g.radius,
+                               ring_quarter(cfg, h) * split, cfg.mesh.layers * split,
+                               plane=plane)
     for s in surfaces:
         geo.mesh.setRecombine(2, s)
     numbers, heights = _sweep(axis_length, h, cfg, split)
@@ -214,8 +214,7 @@ def _annulus(gmsh, cfg: Config, h: float, split: int) -> None:
     swept = geo.extrude([(1, rim)], g.radius - g.inner_radius, 0, 0, numElements=numbers,
                         heights=heights, recombine=True)
     section = [(d, t) for d, t in swept if d == 2]
-    n_around = count(2 * math.pi * g.radius, h, minimum=8)
-    quarter = max(2, int(math.ceil(n_around / 4))) * split
+    quarter = ring_quarter(cfg, h) * split
     for _ in range(4):  # four quarter turns; the last closes onto the first section
         out = geo.revolve(section, 0, 0, 0, 0, 0, 1, math.pi / 2, numElements=[quarter],
                           recombine=True)
