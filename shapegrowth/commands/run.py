@@ -42,11 +42,12 @@ from ..optim.refined import (
     likely_cause,
     verify,
 )
+from ..physics import linear
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer
-from .solve import base_summary
+from .solve import base_summary, linear_use
 
 log = logging.getLogger(__name__)
 
@@ -93,12 +94,14 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     timer = Timer()
     if not resume and MPI.COMM_WORLD.rank == 0 and (out / "verified.csv").exists():
         (out / "verified.csv").unlink()  # a new run's checks only
-    done = optimise_levels(cfg, out, resume, timer)
-    settled = settle(done)
-    with timer("io"):
-        write_outputs(out, done)
-    verified = verify_best(cfg, done.model, settled)
-    summary = summarise(cfg, done, settled, verified, timer, resume)
+    with linear.counting() as tally:  # the linear solvers' fallbacks, all models
+        done = optimise_levels(cfg, out, resume, timer)
+        settled = settle(done)
+        with timer("io"):
+            write_outputs(out, done)
+        verified = verify_best(cfg, done.model, settled)
+    summary = dataclasses.replace(summarise(cfg, done, settled, verified, timer, resume),
+                                  linear_solver=linear_use(done.model.state.linear, tally))
     io.write_json(out / "summary.json", summary.to_json())
     report_run(summary, settled, out)
     return RunResult(summary, done.model)

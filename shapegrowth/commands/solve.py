@@ -13,7 +13,8 @@ from .. import compat
 from ..config import Config
 from ..errors import InputError
 from ..io import files as io
-from ..io.summary import Dofs, Probe, RunSummary, SolveMeasures
+from ..io.summary import Dofs, LinearSolverUse, Probe, RunSummary, SolveMeasures
+from ..physics import linear
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
 from ..status import Outcome
@@ -41,6 +42,18 @@ def solve_forward(cfg: Config, out: Path,
                   probe_texts: list[str] | tuple[str, ...] = ()) -> RunSummary:
     """Forward solve with the config's initial growth, written to ``out``; returns its
     summary (``status``: converged, or failed with the reason)."""
+    with linear.counting() as tally:
+        return _solve_forward(cfg, out, probe_texts, tally)
+
+
+def linear_use(preset: str, tally: linear.FallbackTally) -> LinearSolverUse:
+    """summary.json's ``linear_solver``: the preset and the fallbacks counted in ``tally``."""
+    return LinearSolverUse(preset, tally.state + tally.adjoint, tally.state, tally.adjoint,
+                           tuple(tally.reasons))
+
+
+def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, ...],
+                   tally: linear.FallbackTally) -> RunSummary:
     timer = Timer()
     section = cfg.section
     n_probe = 3 if section.reduced else cfg.dim  # a section's probes are the 3D body's points
@@ -92,7 +105,8 @@ def solve_forward(cfg: Config, out: Path,
         residual_strain=model.residual_strain_norm(),
         probes=tuple(Probe(tuple(map(float, p[:n_probe])), tuple(map(float, d)))
                      for p, d in zip(probes, deformed)))
-    summary = base_summary(cfg, model, report, status, timer, solve=measures, **shape)
+    summary = base_summary(cfg, model, report, status, timer, solve=measures,
+                           linear_solver=linear_use(model.state.linear, tally), **shape)
     io.write_json(out / "summary.json", summary.to_json())
     for p, d in zip(probes, deformed):
         log.info("probe X = (%s) -> Phi(X) = (%s)", ", ".join(f"{v:.6g}" for v in p[:n_probe]),

@@ -290,7 +290,14 @@ class ContinuationConfig:
 
 @dataclass(frozen=True)
 class SolverConfig:
-    linear: str = option("linear solver of the Newton steps", "mumps", choices=("mumps", "gamg"))
+    linear: str = option(
+        "linear solver of the Newton steps, the adjoint and the filter: mumps (LU), "
+        "mumps_ldlt (symmetric LDL^T, half the factor), mumps_blr (LDL^T with block low-rank "
+        "compression under GMRES), gamg or hypre (algebraic multigrid with the rigid-body "
+        "modes, under GMRES, for chunky bodies), auto (chosen by the model's size); a "
+        "preset's failed solve is done again with mumps, counted in summary.json "
+        "linear_solver (measurements: docs/PERFORMANCE.md, \"Linear solvers\")", "mumps",
+        choices=("mumps", "mumps_ldlt", "mumps_blr", "gamg", "hypre", "auto"))
     line_search: str = option("SNES line search (basic is plain Newton, fastest here)", "basic",
                               choices=("basic", "bt", "l2", "cp"))
     max_newton_iterations: int = option("Newton iterations per continuation step", 15, ge=1)

@@ -52,6 +52,18 @@ class OptimizationMeasures:
 
 
 @dataclass(frozen=True)
+class LinearSolverUse:
+    """``solver.linear`` as used: the preset (``auto`` resolved on the run's last model) and
+    the solves that fell back to the exact factorisation (physics/linear.py)."""
+
+    preset: str
+    fallbacks: int
+    state_fallbacks: int
+    adjoint_fallbacks: int
+    reasons: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
 class RunSummary:
     name: str
     status: Outcome
@@ -79,6 +91,7 @@ class RunSummary:
     optimization: OptimizationMeasures | None = None
     verified: Verified | None = None  # a run's verified shape error (verify.enabled)
     peak_memory_mb: float | None = None  # resident memory high-water mark, summed over ranks
+    linear_solver: LinearSolverUse | None = None
 
     @property
     def relative_error(self) -> float | None:
@@ -109,8 +122,12 @@ class RunSummary:
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> RunSummary:
         names = {f.name for f in dataclasses.fields(cls)} - {"solve", "optimization", "verified"}
-        names -= {"peak_memory_mb"} - set(data)  # older summaries have none
+        names -= {"peak_memory_mb", "linear_solver"} - set(data)  # older summaries have none
         common: dict[str, Any] = {k: data.get(k) for k in names}
+        if data.get("linear_solver"):
+            use = dict(data["linear_solver"])
+            use["reasons"] = tuple(use.get("reasons", ()))
+            common["linear_solver"] = LinearSolverUse(**use)
         common["status"] = Outcome.parse(str(data["status"]))
         common["dofs"] = Dofs(**data["dofs"])
         solve = optimization = None

@@ -20,8 +20,9 @@ residual is below 1e-12 of b or the correction below 1e-9 of p.  Two or three
 refinements suffice on a thin beam; this replaces a
 matrix assembly and a factorisation by back-solves and vector assemblies.  Where
 refinement stalls (the factors are of an older state) the tangent is assembled
-and factored anew with the adjoint solver (MUMPS LU by default, options ``adjoint_...``),
-which ``solver.adjoint_reuse: false`` always does.
+and factored anew with the adjoint solver (``solver.linear``'s preset, options
+``adjoint_...``; a failed solve falls back to MUMPS LU), which ``solver.adjoint_reuse:
+false`` always does.
 """
 
 from __future__ import annotations
@@ -35,6 +36,8 @@ from petsc4py import PETSc
 
 from .. import compat
 from ..errors import AdjointSolveError
+from ..physics import linear
+from ..physics.newton import rigid_body_modes
 from ..physics.options import SolverOptions
 from ..physics.state import StateProblem
 from ..shape.clouds import assemble
@@ -54,12 +57,11 @@ class AdjointProblem:
         self.A = dolfinx.fem.petsc.create_matrix(state.jacobian_form)
         self.rhs = self.A.createVecRight()
         self.ksp = PETSc.KSP().create(state.domain.mesh.comm)
-        defaults: dict[str, object] = {"ksp_type": "preonly", "pc_type": "lu",
-                                       "pc_factor_mat_solver_type": "mumps"}
-        if state.cfg.solver.linear == "gamg":
-            defaults = {"ksp_type": "gmres", "ksp_rtol": 1e-12, "ksp_max_it": 5000,
-                        "ksp_gmres_restart": 200, "pc_type": "gamg"}
-        self.options = SolverOptions(self.role, defaults, state.cfg.solver.petsc_options)
+        self.linear = state.linear  # the state's preset, resolved
+        self.options = SolverOptions(self.role, linear.preset_options(self.linear, self.role),
+                                     state.cfg.solver.petsc_options)
+        if self.linear in linear.MULTIGRID:
+            self.A.setNearNullSpace(rigid_body_modes(state.V))
         self.ksp.setOptionsPrefix(self.options.prefix)
         with self.options.pushed():
             self.ksp.setFromOptions()
@@ -92,15 +94,25 @@ class AdjointProblem:
         # dolfinx 0.5's annotations miss this (singledispatch) overload
         dolfinx.fem.petsc.assemble_matrix(self.A, st.jacobian_form, bcs=st.bcs)
         self.A.assemble()
-        self.ksp.setOperators(self.A)
-        with self.options.pushed():
-            self.ksp.solve(self.rhs, compat.petsc_vec(self.p))
-        if self.ksp.getConvergedReason() < 0:
-            raise AdjointSolveError(f"adjoint solve failed (KSP reason "
-                                    f"{self.ksp.getConvergedReason()}); a direct solver "
-                                    "(solver.linear: mumps) does not fail this way")
+        failure = self._fresh_solve(self.ksp, self.options)
+        if failure and self.linear != "mumps":
+            linear.record_fallback(self.role, self.linear, failure)
+            linear.reset_after_failure(self.ksp)
+            failure = self._fresh_solve(*self.state.exact_ksp())
+        if failure:
+            raise AdjointSolveError(f"adjoint solve failed ({failure})")
         self.p.x.scatter_forward()
         return self.ksp.getIterationNumber()
+
+    def _fresh_solve(self, ksp: PETSc.KSP, options: SolverOptions) -> str:
+        """K p = b with the assembled tangent by ``ksp``; the failure in words ('' if none)."""
+        ksp.setOperators(self.A)
+        try:
+            with options.pushed():
+                ksp.solve(self.rhs, compat.petsc_vec(self.p))
+        except PETSc.Error as err:  # e.g. a factorisation that broke down
+            return f"PETSc error {err.ierr}"
+        return linear.ksp_reason(ksp) if ksp.getConvergedReason() < 0 else ""
 
     def _solve_with_state_factors(self) -> bool:
         """p by the state solver's last factors and refinement; False if it did not converge.

@@ -5,7 +5,8 @@ matrix), the filtered nodal values are rho_hat = K^-1 M rho (``forward``).  A
 derivative with respect to rho_hat (a dual vector) is carried back to rho by the
 transpose, M K^-1 (``backward``; K and M are symmetric).  l = 0 is the identity.
 The solver takes the options ``filter_...`` (CG + Jacobi by default: K is a
-well-conditioned SPD matrix, about as cheap as a mass matrix).
+well-conditioned SPD matrix, about as cheap as a mass matrix; CG + the multigrid with
+``solver.linear: gamg | hypre``).
 """
 
 from __future__ import annotations
@@ -16,13 +17,15 @@ import ufl
 from petsc4py import PETSc
 
 from .. import compat
+from .linear import preset_options
 from .options import SolverOptions
 
 
 class HelmholtzFilter:
     role = "filter_"  # the prefix of this solver's keys in solver.petsc_options
 
-    def __init__(self, space, length: float, petsc_options: dict | None = None):
+    def __init__(self, space, length: float, petsc_options: dict | None = None,
+                 preset: str = "mumps"):
         self.space, self.length = space, float(length)
         if self.length == 0.0:
             return
@@ -36,9 +39,8 @@ class HelmholtzFilter:
         self.M = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(u * v * dx))
         self.M.assemble()
         self.ksp = PETSc.KSP().create(space.mesh.comm)
-        defaults = {"ksp_type": "cg", "pc_type": "jacobi", "ksp_rtol": 1e-13, "ksp_atol": 1e-30,
-                    "ksp_max_it": 2000}
-        self.options = SolverOptions(self.role, defaults, petsc_options)
+        self.options = SolverOptions(self.role, preset_options(preset, self.role),
+                                     petsc_options)
         self.ksp.setOptionsPrefix(self.options.prefix)
         self.ksp.setOperators(self.K)
         with self.options.pushed():

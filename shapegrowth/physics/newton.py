@@ -8,15 +8,17 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..config import Config
+from .linear import preset_options
 
 
-def solver_options(cfg: Config, force_scale: float) -> dict[str, object]:
+def solver_options(cfg: Config, force_scale: float, linear: str) -> dict[str, object]:
     """PETSc options of the state solver (without a prefix).
 
     The absolute tolerance is ``solver.atol`` times the body's force scale, so that
     it means the same for a beam of volume 0.002 and a square of area 16: thin bodies
     are soft in bending (a residual of 1e-10 left displacement errors of 1e-6 on the
-    beam), while the residual of a body at rest is round-off, ~1e-16 of that scale."""
+    beam), while the residual of a body at rest is round-off, ~1e-16 of that scale.
+    ``linear``: the linear solver's preset (physics/linear.py), resolved."""
     s = cfg.solver
     opts: dict[str, object] = {
         "snes_type": "newtonls",
@@ -27,12 +29,7 @@ def solver_options(cfg: Config, force_scale: float) -> dict[str, object]:
         "snes_stol": s.stol,
         "snes_error_if_not_converged": False,
     }
-    if s.linear == "mumps":
-        opts.update({"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"})
-    else:
-        # The prestressed tangent is indefinite early on: CG fails, GMRES + GAMG works.
-        opts.update({"ksp_type": "gmres", "ksp_rtol": 1e-10, "ksp_max_it": 2000,
-                     "ksp_gmres_restart": 200, "pc_type": "gamg"})
+    opts.update(preset_options(linear, "state_"))
     return opts
 
 

@@ -28,9 +28,9 @@ class SolverOptions:
     ``solver.petsc_options`` (true is a bare flag, false removes the option)."""
 
     def __init__(self, role: str, defaults: Mapping[str, object],
-                 user: Mapping[str, object] | None = None):
+                 user: Mapping[str, object] | None = None, prefix: str | None = None):
         self.role = role
-        self.prefix = f"{role}{next(_COUNT[role])}_"
+        self.prefix = f"{role}{next(_COUNT[role])}_" if prefix is None else prefix
         self.defaults = dict(defaults)
         self.user = {key[len(role):]: value for key, value in (user or {}).items()
                      if key.startswith(role)}

@@ -39,6 +39,7 @@ from petsc4py import PETSc
 
 from .. import compat
 from ..config import Config, ConfigError, resolved
+from . import linear
 from .boundary import clamp_conditions
 from .geometry import Domain
 from .growth import Growth
@@ -173,7 +174,10 @@ class StateProblem:
     # ---- PETSc -----------------------------------------------------------------------------
     def _create_snes(self) -> PETSc.SNES:
         snes = PETSc.SNES().create(self.domain.mesh.comm)
-        self.options = SolverOptions(self.role, solver_options(self.cfg, self.force_scale()),
+        self.linear = linear.choose(self.cfg.solver.linear, compat.global_size(self.V),
+                                    self.dim)
+        self.options = SolverOptions(self.role, solver_options(self.cfg, self.force_scale(),
+                                                               self.linear),
                                      self.cfg.solver.petsc_options)
         snes.setOptionsPrefix(self.options.prefix)
         snes.setFunction(lambda _snes, x, b: self.assemble_residual(x, b), self.b)
@@ -184,9 +188,24 @@ class StateProblem:
         except PETSc.Error as err:
             raise ConfigError([f"solver.petsc_options: PETSc rejected "
                                f"{self.options.user_keys} (error code {err.ierr})"]) from None
-        if self.cfg.solver.linear == "gamg":
+        if self.linear in linear.MULTIGRID:
             self.A.setNearNullSpace(rigid_body_modes(self.V))
+        self._exact: tuple[PETSc.KSP, SolverOptions] | None = None  # made at a fallback
+        self._preset_failures = 0  # the preset's failed solves in a row
         return snes
+
+    def exact_ksp(self) -> tuple[PETSc.KSP, SolverOptions]:
+        """The exact factorisation (MUMPS LU) a failed solve of another preset falls back
+        to: a KSP of its own (options prefix ``<state prefix>exact_``), made once, at the
+        first fallback."""
+        if self._exact is None:
+            ksp = PETSc.KSP().create(self.domain.mesh.comm)
+            options = SolverOptions(self.role, linear.EXACT, prefix=self.options.prefix + "exact_")
+            ksp.setOptionsPrefix(options.prefix)
+            with options.pushed():
+                ksp.setFromOptions()
+            self._exact = (ksp, options)
+        return self._exact
 
     def assemble_residual(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
         """R(x) into ``b``, with the Dirichlet rows set to x - g (SNES's residual)."""
@@ -251,7 +270,40 @@ class StateProblem:
                 rtol: float | None = None) -> tuple[bool, int, str]:
         """Newton's method from ``self.u``; ``reference``: the residual norm its relative
         tolerance is taken of (default: the residual at the start); ``rtol``: that
-        tolerance (default solver.rtol)."""
+        tolerance (default solver.rtol).  Where the preset's linear solve fails, the same
+        solve again from the same start with the exact factorisation (linear.py)."""
+        if self._preset_failures >= linear.GIVE_UP_AFTER:  # the preset does not hold here
+            return self._exact_solve(reference, rtol)
+        start = self.u.x.array.copy() if self.linear != "mumps" else None
+        ok, its, reason, linear_failed = self._snes_solve(reference, rtol)
+        if not linear_failed or start is None:
+            self._preset_failures = 0
+            return ok, its, reason
+        linear.record_fallback(self.role, self.linear, reason)
+        linear.reset_after_failure(self.snes.getKSP())
+        self._preset_failures += 1
+        if self._preset_failures == linear.GIVE_UP_AFTER:
+            linear.give_up(self.role, self.linear)
+        self.u.x.array[:] = start
+        ok, more, reason = self._exact_solve(reference, rtol)
+        return ok, its + more, reason
+
+    def _exact_solve(self, reference: float | None, rtol: float | None) -> tuple[bool, int, str]:
+        """:meth:`_snes_solve` with the exact factorisation in place of the preset's KSP."""
+        ksp, options = self.exact_ksp()
+        preset = self.snes.getKSP()
+        self.snes.setKSP(ksp)
+        try:
+            with options.pushed():
+                ok, its, reason, _ = self._snes_solve(reference, rtol)
+        finally:
+            self.snes.setKSP(preset)
+        return ok, its, reason
+
+    def _snes_solve(self, reference: float | None,
+                    rtol: float | None) -> tuple[bool, int, str, bool]:
+        """One SNES solve (see :meth:`_newton`); the last: whether its linear solver failed
+        (PETSc's reason in the third)."""
         x = compat.petsc_vec(self.u)
         tolerances = self.snes.getTolerances()  # rtol, atol, stol, max_it
         rtol = tolerances[0] if rtol is None else rtol
@@ -263,7 +315,7 @@ class StateProblem:
             with self.options.pushed():
                 self.snes.solve(None, x)
         except PETSc.Error as err:  # e.g. a factorisation that broke down
-            return False, self.snes.getIterationNumber(), f"PETSc error {err.ierr}"
+            return False, self.snes.getIterationNumber(), f"PETSc error {err.ierr}", True
         finally:
             if reference is not None or rtol != tolerances[0]:
                 self.snes.setTolerances(rtol=tolerances[0], atol=tolerances[1])
@@ -273,11 +325,13 @@ class StateProblem:
         ok = self.domain.mesh.comm.allreduce(
             bool(reason > 0 and np.isfinite(self.u.x.array).all()), MPI.LAND)
         if not ok:
-            return False, its, SNES_REASONS.get(reason, str(reason))
+            if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
+                return False, its, linear.ksp_reason(self.snes.getKSP()), True
+            return False, its, SNES_REASONS.get(reason, str(reason)), False
         inverted = self.inverted_points()
         if inverted:
-            return False, its, f"det F <= 0 at {inverted} sample points"
-        return True, its, SNES_REASONS[reason]
+            return False, its, f"det F <= 0 at {inverted} sample points", False
+        return True, its, SNES_REASONS[reason], False
 
     # ---- continuation ----------------------------------------------------------------------
     # The state's lifecycle: at rest (after construction or ``reset``), in equilibrium with

@@ -1,0 +1,210 @@
+"""The linear solvers of the Newton steps, the adjoint and the filter: named presets
+(``solver.linear``), ``auto``, and the exact factorisation a failed solve falls back to.
+
+Presets (the PETSc options of each, without a prefix, are in :func:`preset_options`):
+
+``mumps``
+    LU by MUMPS (the exact factorisation; what the project always used).
+``mumps_ldlt``
+    LDL^T by MUMPS (PETSc's Cholesky on the AIJ matrix, MUMPS ``sym = 2``: symmetric
+    indefinite, with pivoting): the tangent of an energy is symmetric, and a prestressed
+    one can be indefinite.  Half of LU's factor.
+``mumps_blr``
+    ``mumps_ldlt`` with MUMPS's block low-rank compression of the factor and of the
+    contribution blocks (``icntl_35 2``, ``icntl_37 1``, ``cntl_7`` = 1e-8) as the
+    preconditioner of GMRES to ``ksp_rtol`` 1e-10: the factor compressed where the wall is
+    thin and the blocks far apart, the Krylov iterations make up what it drops.
+``gamg``
+    PETSc's smoothed-aggregation multigrid with the rigid-body near-nullspace (the
+    matrix's block size is the space's), tuned for elasticity as the PETSc manual's
+    troubleshooting section has it: a negative threshold (every edge kept), Chebyshev
+    smoothing with Jacobi, the eigenvalue estimates by CG, and a direct coarse solve of up
+    to 2000 equations; GMRES outside (the prestressed tangent may be indefinite).
+``hypre``
+    hypre's BoomerAMG with nodal coarsening and vector interpolation (the near-nullspace),
+    under GMRES.
+
+``auto`` picks one from the model's kind and size (:func:`choose`).  A failed linear solve
+(a Krylov breakdown, divergence, a zero pivot) is logged in one line with PETSc's reason and
+repeated with ``mumps`` (:data:`EXACT`); after :data:`GIVE_UP_AFTER` such failures in a
+row, a model's state solves use ``mumps`` (said in one line).  The fallbacks are counted
+per run (:func:`counting`, summary.json ``linear_solver``).
+"""
+
+from __future__ import annotations
+
+import contextvars
+import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+
+from petsc4py import PETSc
+
+from ..config import ConfigError
+
+log = logging.getLogger(__name__)
+
+PRESETS = ("mumps", "mumps_ldlt", "mumps_blr", "gamg", "hypre")
+CHOICES = (*PRESETS, "auto")
+ITERATIVE = ("mumps_blr", "gamg", "hypre")  # a Krylov method outside
+MULTIGRID = ("gamg", "hypre")  # need the rigid-body near-nullspace
+
+# After this many failed solves in a row a model's state solves use the exact
+# factorisation (each failed GAMG solve on the thin beam costs 1000 GMRES iterations).
+GIVE_UP_AFTER = 3
+
+EXACT: dict[str, object] = {"ksp_type": "preonly", "pc_type": "lu",
+                            "pc_factor_mat_solver_type": "mumps"}
+
+# auto: below this many state DOFs the exact LU (its factor is small, and it is what every
+# recorded number was measured with); above, the LDL^T factorisation (docs/PERFORMANCE.md,
+# "Linear solvers").
+AUTO_LDLT_DOFS = 20_000
+
+
+def preset_options(name: str, role: str) -> dict[str, object]:
+    """The KSP/PC options of preset ``name`` for a solver of ``role`` (``state_``,
+    ``adjoint_`` or ``filter_``), without a prefix."""
+    if role == "filter_":
+        return _filter_options(name)
+    rtol = 1e-10 if role == "state_" else 1e-12
+    krylov: dict[str, object] = {"ksp_type": "gmres", "ksp_gmres_restart": 100,
+                                 "ksp_rtol": rtol, "ksp_atol": 0.0, "ksp_max_it": 1000}
+    if name == "mumps":
+        return dict(EXACT)
+    if name == "mumps_ldlt":
+        return {"ksp_type": "preonly", "pc_type": "cholesky",
+                "pc_factor_mat_solver_type": "mumps"}
+    if name == "mumps_blr":
+        return {**krylov, "ksp_max_it": 200, "pc_type": "cholesky",
+                "pc_factor_mat_solver_type": "mumps",
+                "mat_mumps_icntl_35": 2, "mat_mumps_icntl_37": 1, "mat_mumps_cntl_7": 1e-8}
+    if name == "gamg":
+        return {**krylov, "pc_type": "gamg", "pc_gamg_type": "agg",
+                "pc_gamg_agg_nsmooths": 1, "pc_gamg_threshold": -1.0,
+                "pc_gamg_coarse_eq_limit": 2000, "pc_gamg_reuse_interpolation": True,
+                "mg_levels_ksp_type": "chebyshev", "mg_levels_pc_type": "jacobi",
+                "mg_levels_ksp_max_it": 3,
+                # PETSc 3.18 reads the first name, 3.19 and later the second
+                "pc_gamg_esteig_ksp_type": "cg", "mg_levels_esteig_ksp_type": "cg"}
+    if name == "hypre":
+        return {**krylov, "pc_type": "hypre", "pc_hypre_type": "boomeramg",
+                "pc_hypre_boomeramg_nodal_coarsen": 6,
+                "pc_hypre_boomeramg_vec_interp_variant": 3,
+                "pc_hypre_boomeramg_strong_threshold": 0.5,
+                "pc_hypre_boomeramg_coarsen_type": "HMIS",
+                "pc_hypre_boomeramg_interp_type": "ext+i",
+                "pc_hypre_boomeramg_P_max": 4, "pc_hypre_boomeramg_agg_nl": 1}
+    raise ValueError(f"unknown linear solver preset {name!r}")
+
+
+def _filter_options(name: str) -> dict[str, object]:
+    """The Helmholtz filter's system is SPD and about as well conditioned as a mass matrix:
+    CG, with Jacobi for the direct presets (as always) and the multigrid where asked."""
+    opts: dict[str, object] = {"ksp_type": "cg", "pc_type": "jacobi", "ksp_rtol": 1e-13,
+                               "ksp_atol": 1e-30, "ksp_max_it": 2000}
+    if name == "gamg":
+        opts.update({"pc_type": "gamg", "pc_gamg_threshold": -1.0})
+    elif name == "hypre":
+        opts.update({"pc_type": "hypre", "pc_hypre_type": "boomeramg"})
+    return opts
+
+
+def missing_package(name: str) -> str | None:
+    """The external package preset ``name`` needs and this PETSc lacks (None: all there)."""
+    need = {"mumps": "mumps", "mumps_ldlt": "mumps", "mumps_blr": "mumps",
+            "gamg": "mumps", "hypre": "hypre"}[name]
+    return None if has_package(need) else need
+
+
+def has_package(name: str) -> bool:
+    """Whether this PETSc was built with the external package ``name``."""
+    return bool(PETSc.Sys.hasExternalPackage(name))
+
+
+def choose(requested: str, dofs: int, dim: int) -> str:
+    """The preset ``requested`` stands for on a model of ``dofs`` state DOFs in ``dim``
+    dimensions: ``auto`` resolved (measured: docs/PERFORMANCE.md, "Linear solvers"), and a
+    preset whose package this PETSc lacks replaced, with one line, by the nearest one it has."""
+    name = requested
+    if requested == "auto":
+        name = "mumps" if dofs < AUTO_LDLT_DOFS or dim < 3 else "mumps_ldlt"
+    missing = missing_package(name)
+    if missing is not None:
+        fallback = "mumps_ldlt" if missing == "hypre" else None
+        if fallback is None or missing_package(fallback) is not None:
+            raise ConfigError([f"solver.linear: {name} needs PETSc with {missing}, which "
+                               "this PETSc lacks; install a PETSc built with MUMPS"])
+        log.warning("solver.linear: %s needs PETSc with %s, which this PETSc lacks; using %s",
+                    name, missing, fallback)
+        name = fallback
+    return name
+
+
+# ---- fallbacks, counted per run ------------------------------------------------------------
+@dataclass
+class FallbackTally:
+    """Solves that fell back to the exact factorisation, by role, and the first reasons."""
+
+    state: int = 0
+    adjoint: int = 0
+    reasons: list[str] = field(default_factory=list)
+
+    def record(self, role: str, reason: str) -> None:
+        if role == "adjoint_":
+            self.adjoint += 1
+        else:
+            self.state += 1
+        if len(self.reasons) < 5:
+            self.reasons.append(f"{role.rstrip('_')}: {reason}")
+
+
+_TALLY: contextvars.ContextVar[FallbackTally | None] = contextvars.ContextVar(
+    "shapegrowth_linear_fallbacks", default=None)
+
+
+@contextmanager
+def counting() -> Iterator[FallbackTally]:
+    """Count the fallbacks of every solver used inside the block (a run, a solve)."""
+    tally = FallbackTally()
+    token = _TALLY.set(tally)
+    try:
+        yield tally
+    finally:
+        _TALLY.reset(token)
+
+
+def give_up(role: str, preset: str) -> None:
+    log.warning("%s solve: solver.linear %s failed %d solves in a row; this model's later "
+                "solves use MUMPS LU", role.rstrip("_"), preset, GIVE_UP_AFTER)
+
+
+def record_fallback(role: str, preset: str, reason: str) -> None:
+    """Log a preset's failed solve in one line and count it where a run counts."""
+    log.warning("%s solve: solver.linear %s failed (%s); this solve falls back to MUMPS LU",
+                role.rstrip("_"), preset, reason)
+    tally = _TALLY.get()
+    if tally is not None:
+        tally.record(role, reason)
+
+
+KSP_REASONS = {  # PETSc's KSPConvergedReason, the failures
+    -2: "null", -3: "maximum Krylov iterations", -4: "diverged (dtol)", -5: "breakdown",
+    -6: "breakdown (BiCG)", -7: "nonsymmetric", -8: "indefinite preconditioner",
+    -9: "NaN or Inf", -10: "indefinite matrix", -11: "preconditioner failed (e.g. a zero "
+    "pivot)",
+}
+
+
+def reset_after_failure(ksp: PETSc.KSP) -> None:
+    """Forget a failed preconditioner (a factorisation that failed stays failed, and GAMG's
+    reused interpolation with it: PETSc error 76 at every later solve), so that the next
+    solve builds it anew from its operators."""
+    ksp.reset()
+
+
+def ksp_reason(ksp: PETSc.KSP) -> str:
+    reason = ksp.getConvergedReason()
+    return f"KSP {KSP_REASONS.get(reason, str(reason))} after {ksp.getIterationNumber()} " \
+           "iterations"

@@ -1,0 +1,157 @@
+"""The linear solver presets (``solver.linear``, physics/linear.py): each reaches the state
+that MUMPS LU reaches, each gives gradients with Taylor rates > 1.9, ``auto`` chooses by the
+model's size, a missing package degrades with one line, and a failed preset solve falls back
+to the exact factorisation, is logged and counted in summary.json."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+from conftest import CONFIGS, read_json, run_cli
+from mpi4py import MPI
+
+from shapegrowth.config import ConfigError, load
+from shapegrowth.config.sections import SolverConfig
+from shapegrowth.physics import linear
+
+BEND = CONFIGS / "tiny" / "beam_bend.yaml"
+BEAM = CONFIGS / "tiny" / "beam_wave.yaml"
+CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"
+SQUARE = CONFIGS / "tiny" / "square_disk.yaml"
+DIRECT = ("mumps_ldlt", "mumps_blr")
+
+
+def test_the_config_offers_every_preset_and_auto():
+    import dataclasses
+
+    field = next(f for f in dataclasses.fields(SolverConfig) if f.name == "linear")
+    assert tuple(field.metadata["choices"]) == linear.CHOICES
+
+
+def _probes(out) -> np.ndarray:
+    return np.array([p["deformed"] for p in read_json(out / "summary.json")["probes"]])
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("preset", DIRECT)
+def test_a_direct_preset_bends_the_thin_beam_as_lu_does(preset, shared_tmp):
+    """The compatible bend kappa L = pi/2 (a quarter arc) of the thin P2 beam: the LDL^T
+    factorisation and its compressed variant under GMRES land where LU lands, to Newton's
+    tolerance, without a fallback."""
+    sets = ["--set", "parameters.kappa=1.5707963", "--probe", "1,0,0", "--probe", "0.5,0.05,0.01"]
+    results = []
+    for name in ("mumps", preset):
+        out = shared_tmp / name
+        assert run_cli("solve", BEND, "--out", out, "-q", "--set", f"solver.linear={name}",
+                       *sets) == 0
+        results.append(_probes(out))
+        use = read_json(out / "summary.json")["linear_solver"]
+        assert use["preset"] == name and use["fallbacks"] == 0
+    assert results[1] == pytest.approx(results[0], abs=1e-9)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("preset", ["gamg", "hypre"])
+def test_a_multigrid_preset_solves_a_chunky_body_as_lu_does(preset, shared_tmp):
+    """A stretched, sheared P2 cube (where algebraic multigrid with the rigid-body modes
+    holds; on the thin beam it does not, and falls back: docs/PERFORMANCE.md)."""
+    sets = ["--set", "model.degree=2", "--set", "mesh.size=0.25",
+            "--set", "loads.traction={x1_max: [0.3, 0.1, 0], x1_min: [-0.3, -0.1, 0]}",
+            "--set", "growth.eigenvalues.initial=[1.2, 0.9, 1.0]",
+            "--probe", "0.5,0.5,0.5", "--probe", "-0.5,0.2,0.1"]
+    results = []
+    for name in ("mumps", preset):
+        out = shared_tmp / name
+        assert run_cli("solve", CUBE, "--out", out, "-q", "--set", f"solver.linear={name}",
+                       *sets) == 0
+        results.append(_probes(out))
+        assert read_json(out / "summary.json")["linear_solver"]["fallbacks"] == 0
+    assert results[1] == pytest.approx(results[0], abs=1e-8)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("config, preset", [(BEAM, "mumps_ldlt"), (BEAM, "mumps_blr"),
+                                            (SQUARE, "gamg"), (SQUARE, "hypre")])
+def test_taylor_rate_with_each_preset(config, preset, shared_tmp):
+    """The state, a fresh adjoint (no reuse of the state's factors) and the filter by the
+    preset: the reduced gradient's Taylor rate stays above 1.9."""
+    assert run_cli("gradcheck", config, "--out", shared_tmp, "-q",
+                   "--set", f"solver.linear={preset}", "--set", "solver.adjoint_reuse=false",
+                   "--set", "growth.filter_length=0.05") == 0
+    report = read_json(shared_tmp / "gradcheck.json")
+    assert report["min_rate"] > 1.9, report["rates"]
+
+
+@pytest.mark.mpi
+def test_a_failed_state_solve_falls_back_to_lu_and_is_counted(shared_tmp, capsys):
+    """GAMG allowed two Krylov iterations cannot solve the thin beam's Newton steps: each
+    failed solve is said in one line with PETSc's reason, done again with MUMPS LU from the
+    same start, and counted; after three in a row the model keeps LU (one line more); the
+    state is LU's."""
+    sets = ["--set", "parameters.kappa=1.5707963", "--probe", "1,0,0"]
+    assert run_cli("solve", BEND, "--out", shared_tmp / "lu", "-q", *sets) == 0
+    capsys.readouterr()
+    assert run_cli("solve", BEND, "--out", shared_tmp / "gamg", "-q", *sets,
+                   "--set", "solver.linear=gamg",
+                   "--set", "solver.petsc_options={state_ksp_max_it: 2}") == 0
+    captured = capsys.readouterr()
+    assert _probes(shared_tmp / "gamg") == pytest.approx(_probes(shared_tmp / "lu"), abs=1e-9)
+    use = read_json(shared_tmp / "gamg" / "summary.json")["linear_solver"]
+    assert use["preset"] == "gamg" and use["state_fallbacks"] == linear.GIVE_UP_AFTER
+    assert use["fallbacks"] == use["state_fallbacks"] + use["adjoint_fallbacks"]
+    assert "maximum Krylov iterations after 2 iterations" in use["reasons"][0]
+    if MPI.COMM_WORLD.rank == 0:  # the package logs on rank 0 only
+        said = (captured.out + captured.err).strip().splitlines()
+        lines = [line for line in said if "falls back" in line]
+        assert len(lines) == use["state_fallbacks"]
+        assert all("\n" not in line and "gamg failed (KSP" in line for line in lines)
+        assert said[-1] == ("state solve: solver.linear gamg failed 3 solves in a row; this "
+                            "model's later solves use MUMPS LU")
+
+
+@pytest.mark.mpi
+def test_a_failed_adjoint_solve_falls_back_and_the_gradient_is_lus(shared_tmp):
+    """A fresh adjoint solve by GAMG limited to one Krylov iteration fails; the fallback's
+    gradient is the LU gradient, and the fallback is counted."""
+    from shapegrowth.optim.problem import ReducedFunctional
+    from shapegrowth.physics.model import ForwardModel
+
+    gradients = []
+    for preset, extra in (("mumps", {}), ("gamg", {"adjoint_ksp_max_it": 1})):
+        cfg = load(BEAM, [f"mesh.cache_dir={shared_tmp}", f"solver.linear={preset}",
+                          "solver.adjoint_reuse=false", f"solver.petsc_options={extra}"])
+        with linear.counting() as tally:
+            rf = ReducedFunctional(ForwardModel.build(cfg))
+            gradients.append(rf.gradient(rf.current()))
+        assert tally.adjoint == (1 if extra else 0)
+    scale = MPI.COMM_WORLD.allreduce(float(np.abs(gradients[0]).max(initial=0.0)), MPI.MAX)
+    assert np.allclose(gradients[1], gradients[0], rtol=0.0, atol=1e-7 * scale)
+
+
+def test_auto_chooses_lu_for_small_models_and_ldlt_for_large_3d_ones():
+    assert linear.choose("auto", 5_000, 3) == "mumps"
+    assert linear.choose("auto", linear.AUTO_LDLT_DOFS, 3) == "mumps_ldlt"
+    assert linear.choose("auto", 10 * linear.AUTO_LDLT_DOFS, 2) == "mumps"
+    assert linear.choose("hypre", 100, 3) in ("hypre", "mumps_ldlt")
+
+
+def test_a_preset_whose_package_is_missing_degrades_with_one_line(monkeypatch, caplog):
+    monkeypatch.setattr(linear, "has_package", lambda name: name != "hypre")
+    with caplog.at_level(logging.WARNING, logger="shapegrowth.physics.linear"):
+        assert linear.choose("hypre", 1000, 3) == "mumps_ldlt"
+    assert [r.getMessage() for r in caplog.records] == [
+        "solver.linear: hypre needs PETSc with hypre, which this PETSc lacks; using mumps_ldlt"]
+    monkeypatch.setattr(linear, "has_package", lambda name: False)
+    with pytest.raises(ConfigError, match="solver.linear: mumps needs PETSc with mumps"):
+        linear.choose("mumps", 1000, 3)
+
+
+def test_every_preset_sets_options_for_every_role():
+    for name in linear.PRESETS:
+        for role in ("state_", "adjoint_", "filter_"):
+            opts = linear.preset_options(name, role)
+            assert {"ksp_type", "pc_type"} <= set(opts)
+        iterative = linear.preset_options(name, "state_")["ksp_type"] != "preonly"
+        assert iterative == (name in linear.ITERATIVE)
