@@ -296,7 +296,7 @@ class SolverConfig:
         "compression under GMRES), gamg or hypre (algebraic multigrid with the rigid-body "
         "modes, under GMRES, for chunky bodies), auto (chosen by the model's size); a "
         "preset's failed solve is done again with mumps, counted in summary.json "
-        "linear_solver (measurements: docs/PERFORMANCE.md, \"Linear solvers\")", "mumps",
+        "linear_solver (measurements: docs/PERFORMANCE.md, \"Linear solvers\")", "auto",
         choices=("mumps", "mumps_ldlt", "mumps_blr", "gamg", "hypre", "auto"))
     line_search: str = option("SNES line search (basic is plain Newton, fastest here)", "basic",
                               choices=("basic", "bt", "l2", "cp"))

@@ -57,9 +57,10 @@ GIVE_UP_AFTER = 3
 EXACT: dict[str, object] = {"ksp_type": "preonly", "pc_type": "lu",
                             "pc_factor_mat_solver_type": "mumps"}
 
-# auto: below this many state DOFs the exact LU (its factor is small, and it is what every
-# recorded number was measured with); above, the LDL^T factorisation (docs/PERFORMANCE.md,
-# "Linear solvers").
+# auto (the default): below this many state DOFs, and for every 2D model, the LU every
+# recorded number of a small model was measured with (its factor is small: 140 MB at 21k 3D
+# DOFs); from there on the LDL^T factorisation, the same states to round-off with half the
+# factor and 0.6x its time (docs/PERFORMANCE.md, "Linear solvers").
 AUTO_LDLT_DOFS = 20_000
 
 
