@@ -1,0 +1,75 @@
+"""The state tangent's factor by each direct preset on a config's mesh: MUMPS's own memory
+(INFOG(22), MB effectively used, all ranks) and factor entries (INFOG(29); INFOG(35) after
+block low-rank compression), the time to factor and to solve, and the relative residual of
+one solve (docs/PERFORMANCE.md, "Linear solvers").
+
+    mpirun -n 2 .venv/bin/python benchmarks/linear_factors.py CONFIG [--refine N]
+        [--set KEY=VALUE ...] [--presets mumps,mumps_ldlt,mumps_blr]
+
+The tangent is the one at rest (C_g = I: the pattern and the fill of every tangent of the
+model); one JSON line per preset on rank 0.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from shapegrowth import compat
+from shapegrowth.config import load
+from shapegrowth.physics import linear
+from shapegrowth.physics.model import ForwardModel
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("config")
+    parser.add_argument("--refine", type=int, default=0)
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--presets", default="mumps,mumps_ldlt,mumps_blr")
+    args = parser.parse_args()
+    cfg = load(args.config, [*args.set, f"mesh.refine={args.refine}"])
+    state = ForwardModel.build(cfg).state
+    A = state.A
+    state.assemble_tangent(compat.petsc_vec(state.u), A)
+    b, x, r = A.createVecRight(), A.createVecRight(), A.createVecRight()
+    b.set(1.0)
+    comm = MPI.COMM_WORLD
+    for name in args.presets.split(","):
+        opts = {**linear.preset_options(name, "state_"), "ksp_type": "preonly"}  # the factor
+        ksp = PETSc.KSP().create(comm)
+        ksp.setOptionsPrefix("factors_")
+        table = PETSc.Options()
+        for key, value in opts.items():
+            table["factors_" + key] = value
+        ksp.setFromOptions()
+        ksp.setOperators(A)
+        tic = time.perf_counter()
+        ksp.setUp()
+        factor_s = time.perf_counter() - tic
+        tic = time.perf_counter()
+        ksp.solve(b, x)
+        solve_s = time.perf_counter() - tic
+        A.mult(x, r)
+        r.axpy(-1.0, b)
+        residual = r.norm() / b.norm()
+        F = ksp.getPC().getFactorMatrix()
+        row = {"config": args.config, "refine": args.refine, "preset": name,
+               "dofs": A.getSize()[0], "ranks": comm.size,
+               "factor_mb": F.getMumpsInfog(22), "factor_entries": F.getMumpsInfog(29),
+               "compressed_entries": F.getMumpsInfog(35), "ordering": F.getMumpsInfog(7),
+               "factor_s": round(factor_s, 3), "solve_s": round(solve_s, 4),
+               "relative_residual": residual}
+        if comm.rank == 0:
+            print(json.dumps(row), flush=True)
+        for key in opts:
+            table.delValue("factors_" + key)
+        ksp.destroy()
+
+
+if __name__ == "__main__":
+    main()
