@@ -60,6 +60,13 @@ def test_an_alpha_schedule_is_a_list(tmp_path):
     ("growth: {eigenvalues: {initial: [\"__import__('os').system('touch /tmp/x')\", 1, 1]}}",
      "growth.eigenvalues.initial[0]", "may be called"),
     ("boundary: {clamp: inner_rim}", "boundary.clamp", "allowed: x1_min"),
+    ("boundary: {clamp: [x1_min, inner_rim]}", "boundary.clamp", "'inner_rim' is not a"),
+    ("boundary: {clamp: [x1_min, rigid]}", "boundary.clamp", "stands alone"),
+    ("boundary: {clamp: [x1_max, x1_max]}", "boundary.clamp", "names a boundary twice"),
+    ("boundary: {clamp: []}", "boundary.clamp", "an empty list"),
+    ("boundary: {clamp: [x1_min, x1_max]}\nmesh: {size: 0.05, clamp_size: 0.01}",
+     "mesh.clamp_size", "grades the mesh towards a clamp"),
+    ("solver: {linear: superlu}", "solver.linear", "allowed: mumps, mumps_ldlt"),
     ("model: {dim: 2, reduction: axisymmetric}", "model.reduction", "a box reduces to"),
     ("mesh: {size: 0.05, clamp_size: 0.1}", "mesh.clamp_size", "smaller than mesh.size"),
     ("boundary: {clamp: rigid}\nmesh: {size: 0.05, clamp_size: 0.01}", "mesh.clamp_size",
@@ -172,3 +179,14 @@ def test_start_from_the_target_says_what_it_needs():
     assert len(lines) == 2
     assert any("needs target.map" in p for p in lines)
     assert any(p.startswith("growth.eigenvalues.initial: start: target") for p in lines)
+
+
+def test_a_clamp_is_one_boundary_or_a_list_of_them(tmp_path):
+    """``boundary.clamp`` takes a name or a list; ``clamped`` gives both as a tuple."""
+    from shapegrowth.config import load
+
+    one = load(CONFIGS / "tiny" / "beam_bend.yaml")
+    both = load(CONFIGS / "tiny" / "beam_bend.yaml", ["boundary.clamp=[x1_min, x1_max]"])
+    assert one.boundary.clamped == ("x1_min",)
+    assert both.boundary.clamped == ("x1_min", "x1_max")
+    assert list(both.to_dict()["boundary"]["clamp"]) == ["x1_min", "x1_max"]

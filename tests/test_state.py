@@ -151,6 +151,35 @@ def test_half_circle_tip_lands_on_the_arc(tmp_path):
 
 
 @pytest.mark.mpi
+def test_a_bar_clamped_at_both_ends_grows_mirror_symmetric(shared_tmp):
+    """``boundary.clamp: [x1_min, x1_max]``: the thin beam held at both ends, grown along its
+    axis by 0.05 % (below the clamped-clamped Euler strain pi^2/3 (t/L)^2 = 0.13 %), is
+    compressed: both ends stay put, the structured hexahedral mesh is mirror-symmetric
+    about X1 = L/2, and so is the state (u1 odd, u2 and u3 even, u1 = 0 on the mid-plane),
+    to round-off; clamped at X1 = 0 alone, the same growth elongates it freely by
+    sqrt(1.001) - 1."""
+    points = [(0.25, 0.05, 0.0), (0.75, 0.05, 0.0), (0.5, 0.03, 0.01), (1.0, 0.02, 0.0),
+              (0.0, -0.02, 0.0)]
+    sets = ["--set", "mesh.cells=hex", "--set", f"mesh.cache_dir={shared_tmp}",
+            "--set", "growth.eigenvalues.initial=[1.001, 1, 1]"]
+    sets += [a for p in points for a in ("--probe", ",".join(map(str, p)))]
+    moved = {}
+    for clamp in ("[x1_min, x1_max]", "x1_min"):
+        out = shared_tmp / clamp.strip("[]").replace(", ", "-")
+        assert run_cli("solve", BEND, "--out", out, "-q", "--set", f"boundary.clamp={clamp}",
+                       *sets) == 0
+        summary = read_json(out / "summary.json")
+        moved[clamp] = np.array([p["deformed"] for p in summary["probes"]]) - np.array(points)
+    u = moved["[x1_min, x1_max]"]
+    assert np.abs(u[3:]).max() < 1e-15  # both ends held
+    assert u[0, 0] > 1e-7 and u[1, 0] == pytest.approx(-u[0, 0], rel=1e-9)
+    assert u[1, 1:] == pytest.approx(u[0, 1:], rel=1e-9)
+    assert abs(u[2, 0]) < 1e-12 * abs(u[0, 0]) + 1e-18
+    free = moved["x1_min"]
+    assert free[3, 0] == pytest.approx(math.sqrt(1.001) - 1.0, rel=1e-6)
+
+
+@pytest.mark.mpi
 def test_gamg_gives_the_mumps_solution(shared_tmp):
     """GMRES + GAMG with the rigid-body near-nullspace reaches the same state on a chunky
     body (a stretched, sheared cube).  On the thin P2 beam GAMG needs 250-1100 GMRES

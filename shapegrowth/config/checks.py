@@ -48,11 +48,22 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     cfg = dataclasses.replace(cfg, model=model)
     section = section_of(dim, kind, model.reduction)
 
-    bc = cfg.boundary.clamp
+    clamped = cfg.boundary.clamped
+    bc = clamped[0] if len(clamped) == 1 else None  # the one clamp (grading, rigid)
     allowed = (*BOUNDARIES[kind], "rigid")
-    if bc not in allowed:
-        errors.append(f"boundary.clamp: '{bc}' is not a boundary of a {kind} "
-                      f"(allowed: {', '.join(allowed)})")
+    for name in clamped:
+        if name not in allowed:
+            errors.append(f"boundary.clamp: '{name}' is not a boundary of a {kind} "
+                          f"(allowed: {', '.join(allowed)})")
+    if not clamped:
+        errors.append("boundary.clamp: an empty list; name a boundary, a list of them, or "
+                      "rigid")
+    elif len(clamped) > 1 and "rigid" in clamped:
+        errors.append("boundary.clamp: rigid pins three vertices of a free body and stands "
+                      "alone; give it without other boundaries")
+    elif len(set(clamped)) < len(clamped):
+        errors.append(f"boundary.clamp: {list(clamped)} names a boundary twice; name each "
+                      "once")
 
     if cfg.mesh.clamp_size is not None:
         if (kind, bc) not in GRADED:
@@ -62,9 +73,10 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
         elif cfg.mesh.clamp_size >= cfg.mesh.size:
             errors.append("mesh.clamp_size: must be smaller than mesh.size (or left out)")
 
-    if section.reduced and bc in _OFF_SECTION.get(kind, ()):
-        errors.append(f"boundary.clamp: '{bc}' is not on the section a 2D model of a {kind} "
-                      "keeps; clamp a boundary in the plane, or use model.dim: 3")
+    for name in clamped:
+        if section.reduced and name in _OFF_SECTION.get(kind, ()):
+            errors.append(f"boundary.clamp: '{name}' is not on the section a 2D model of a "
+                          f"{kind} keeps; clamp a boundary in the plane, or use model.dim: 3")
 
     loads = cfg.loads
     n_load = 3 if section.reduced else dim  # a section's loads are the 3D body's

@@ -110,8 +110,14 @@ class MaterialConfig:
 
 @dataclass(frozen=True)
 class BoundaryConfig:
-    clamp: str = option("named boundary clamped in all directions, or 'rigid' "
-                        "(remove rigid motions only)")
+    clamp: str | tuple[str, ...] = option(
+        "named boundary clamped in all directions, or a list of them (e.g. [x1_min, x1_max]: "
+        "held at both ends), or 'rigid' (remove rigid motions only)")
+
+    @property
+    def clamped(self) -> tuple[str, ...]:
+        """The clamped boundaries' names (('rigid',) for rigid pins)."""
+        return (self.clamp,) if isinstance(self.clamp, str) else tuple(self.clamp)
 
 
 @dataclass(frozen=True)

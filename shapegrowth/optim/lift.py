@@ -75,7 +75,7 @@ def check_liftable(reduced: Config, solid: Config) -> None:
         problems.append(f"verify.lift: '{solid.name}' has another target than the run")
     if solid.material != reduced.material:
         problems.append(f"verify.lift: '{solid.name}' has another material than the run")
-    if solid.boundary != reduced.boundary:
+    if set(solid.boundary.clamped) != set(reduced.boundary.clamped):
         problems.append(f"verify.lift: '{solid.name}' has another clamp than the run")
     if problems:
         raise ConfigError(problems)

@@ -23,15 +23,18 @@ from .. import compat
 from .geometry import Domain
 
 
-def clamp_conditions(V: Any, domain: Domain, clamp: str, axisymmetric: bool = False) -> list:
-    """Homogeneous Dirichlet conditions for the displacement space ``V``.  The (R, Z) section
-    of a body of revolution has one rigid motion, the translation along Z: ``rigid`` pins
-    u_Z at A alone there."""
+def clamp_conditions(V: Any, domain: Domain, clamp: str | tuple[str, ...],
+                     axisymmetric: bool = False) -> list:
+    """Homogeneous Dirichlet conditions for the displacement space ``V`` on the named
+    boundary, or on each of a list of them.  The (R, Z) section of a body of revolution has
+    one rigid motion, the translation along Z: ``rigid`` pins u_Z at A alone there."""
     mesh = domain.mesh
-    if clamp == "rigid":
+    names = (clamp,) if isinstance(clamp, str) else tuple(clamp)
+    if names == ("rigid",):
         return _rigid_pins(V, mesh, axisymmetric)
     fdim = mesh.topology.dim - 1
-    facets = domain.facet_tags.find(domain.boundaries[clamp])
+    facets = np.unique(np.concatenate(
+        [domain.facet_tags.find(domain.boundaries[name]) for name in names])).astype(np.int32)
     mesh.topology.create_connectivity(fdim, mesh.topology.dim)  # 0.9 does not create it
     dofs = dolfinx.fem.locate_dofs_topological(V, fdim, facets)
     zero = np.zeros(mesh.geometry.dim, dtype=np.float64)
