@@ -207,7 +207,7 @@ def test_fields_file_holds_every_field(shared_tmp):
             names = set(h5["Function"])
         assert names == {"displacement", "lambda_hat_1", "lambda_hat_2", "lambda_hat_3",
                          "theta_hat_1", "theta_hat_2", "theta_hat_3", "v_1", "v_2", "v_3",
-                         "residual_strain"}
+                         "residual_strain", "stability_mode"}
         assert 'Attribute Name="displacement"' in (shared_tmp / "fields.xdmf").read_text()
 
 

@@ -3,6 +3,7 @@ growth and writes summary.json and fields.xdmf."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from pathlib import Path
 from typing import Any
@@ -16,6 +17,7 @@ from ..io import files as io
 from ..io.summary import Dofs, LinearSolverUse, Probe, RunSummary, SolveMeasures
 from ..physics import linear
 from ..physics.model import ForwardModel
+from ..physics.stability import PathWatch, StabilityProblem
 from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer, peak_memory_mb
@@ -72,7 +74,16 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
     log.info("solving %s: %d state DOFs, growth %s", cfg.name,
              compat.global_size(model.state.V), cfg.growth.frame)
     with timer("forward"):
-        report = model.state.solve()
+        watch = PathWatch(StabilityProblem(model.state))
+        report = model.state.solve(watch=watch)
+    with timer("forward"):  # the stability of the state found
+        now = watch.problem.assess()
+        lost_at, kind = watch.lost(report.reached, report.converged)
+        stability = dataclasses.replace(now, lost_at=lost_at, kind=kind)
+    log.info("stability: lowest eigenvalue %s, %d negative (%s)%s",
+             f"{stability.lowest[0]:.4g}" if stability.lowest else "none",
+             stability.negative, "stable" if stability.stable else "unstable",
+             f"; lost at {lost_at:.4f} of the growth ({kind})" if lost_at is not None else "")
     status = Outcome.converged() if report.converged else Outcome.failed(report.reason)
     log.info("%s after %d load steps, %d Newton iterations (%.2f s)", status, report.steps,
              report.newton_iterations, report.seconds)
@@ -99,14 +110,15 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
                     else probes[:, :cfg.dim] + u)
     with timer("io"):
         io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
-                        extra=[model.residual_strain_field()])
+                        extra=[model.residual_strain_field(), watch.problem.mode])
     measures = SolveMeasures(
         volume_reference=vol_ref, volume_deformed=vol_def, stress_l2=model.stress_norm(),
         residual_strain=model.residual_strain_norm(),
         probes=tuple(Probe(tuple(map(float, p[:n_probe])), tuple(map(float, d)))
                      for p, d in zip(probes, deformed)))
     summary = base_summary(cfg, model, report, status, timer, solve=measures,
-                           linear_solver=linear_use(model.state.linear, tally), **shape)
+                           linear_solver=linear_use(model.state.linear, tally),
+                           stability=stability, **shape)
     io.write_json(out / "summary.json", summary.to_json())
     for p, d in zip(probes, deformed):
         log.info("probe X = (%s) -> Phi(X) = (%s)", ", ".join(f"{v:.6g}" for v in p[:n_probe]),

@@ -11,6 +11,7 @@ from typing import Any
 
 from ..optim.lift import Lifted
 from ..optim.refined import Verified
+from ..physics.stability import Stability
 from ..status import Outcome
 
 
@@ -92,6 +93,7 @@ class RunSummary:
     verified: Verified | None = None  # a run's verified shape error (verify.enabled)
     peak_memory_mb: float | None = None  # resident memory high-water mark, summed over ranks
     linear_solver: LinearSolverUse | None = None
+    stability: Stability | None = None  # of the final state (solve)
 
     @property
     def relative_error(self) -> float | None:
@@ -115,6 +117,9 @@ class RunSummary:
                         del out["verified"]["lifted"]
             elif f.name == "status":
                 out["status"] = str(value)
+            elif f.name == "stability":
+                if value is not None:
+                    out["stability"] = value.to_json()
             else:
                 out[f.name] = _plain(value)
         return out
@@ -122,8 +127,12 @@ class RunSummary:
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> RunSummary:
         names = {f.name for f in dataclasses.fields(cls)} - {"solve", "optimization", "verified"}
-        names -= {"peak_memory_mb", "linear_solver"} - set(data)  # older summaries have none
+        names -= {"peak_memory_mb", "linear_solver", "stability"} - set(data)  # older ones
         common: dict[str, Any] = {k: data.get(k) for k in names}
+        if data.get("stability"):
+            fields = {k: v for k, v in data["stability"].items() if k != "stable"}
+            fields["lowest"] = tuple(fields["lowest"])
+            common["stability"] = Stability(**fields)
         if data.get("linear_solver"):
             use = dict(data["linear_solver"])
             use["reasons"] = tuple(use.get("reasons", ()))

@@ -20,7 +20,7 @@ from petsc4py import PETSc
 
 from ..compat import set_option
 
-_COUNT = {role: itertools.count() for role in ("state_", "adjoint_", "filter_")}
+_COUNT = {role: itertools.count() for role in ("state_", "adjoint_", "filter_", "stability_")}
 
 
 class SolverOptions:

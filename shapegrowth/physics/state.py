@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import dolfinx.fem
@@ -372,8 +373,9 @@ class StateProblem:
         self._equilibrium = self.target.values()
         self._at_rest = False
 
-    def solve(self) -> SolveReport:
-        """Bring ``self.u`` into equilibrium with ``self.target``'s growth."""
+    def solve(self, watch: Callable[[float], None] | None = None) -> SolveReport:
+        """Bring ``self.u`` into equilibrium with ``self.target``'s growth; ``watch`` is
+        called with the load fraction after each converged load step (stability.py)."""
         cont = self.cfg.solver.continuation
         report = SolveReport()
         tic = time.perf_counter()
@@ -417,6 +419,8 @@ class StateProblem:
                 report.history.append((t, its))
                 log.log(level, "  load step %3d: t = %.4f (step %.3g), %2d Newton iterations",
                         report.steps, t, dt, its)
+                if watch is not None:
+                    watch(t)
                 if its <= 5:
                     dt *= 2.0
                 continue

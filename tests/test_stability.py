@@ -1,0 +1,93 @@
+"""The stability of an equilibrium (physics/stability.py): the lowest eigenvalues of the
+tangent, the inertia, and where a growth path loses stability, against Euler's closed form
+for a bar held at both ends and grown along its axis; a body far from any threshold is
+stable; serial and on 2 ranks."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from conftest import CONFIGS, read_json, run_cli
+
+from shapegrowth.io.summary import RunSummary
+from shapegrowth.physics.stability import PathWatch, Stability
+
+BEND = CONFIGS / "tiny" / "beam_bend.yaml"
+CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"
+
+# Euler buckling of a column clamped at both ends, P = 4 pi^2 E I / L^2, in the strain its
+# held growth puts it under (E cancels): eps = pi^2 / 3 (t / L)^2, t/L = 1/50 for the beam.
+EULER_STRAIN = math.pi**2 / 3.0 * (0.02 / 1.0) ** 2  # 1.316e-3
+
+
+def _solve(shared_tmp, strain: float) -> dict:
+    out = shared_tmp / f"strain-{strain:.3e}"
+    assert run_cli("solve", BEND, "--out", out, "-q", "--set", "mesh.cells=hex",
+                   "--set", f"mesh.cache_dir={shared_tmp}",
+                   "--set", "boundary.clamp=[x1_min, x1_max]",
+                   "--set", f"growth.eigenvalues.initial=[{(1 + strain) ** 2}, 1, 1]") == 0
+    return read_json(out / "summary.json")["stability"]
+
+
+@pytest.mark.mpi
+def test_a_bar_held_at_both_ends_buckles_at_eulers_strain(shared_tmp):
+    """Q2 hexahedra, one through the thickness, 20 along: grown by 0.8 of Euler's strain the
+    straight bar is stable, by 1.25 of it unstable with one negative eigenvalue, and the
+    path from rest loses stability where the growth strain is Euler's, to 5 % (measured
+    1.354e-3 against 1.316e-3: +2.9 %, the width's plate stiffening and the mesh)."""
+    below = _solve(shared_tmp, 0.8 * EULER_STRAIN)
+    assert below["stable"] and below["negative"] == 0 and below["lowest"][0] > 0
+    assert below["lost_at"] is None and below["kind"] is None
+    above = _solve(shared_tmp, 1.25 * EULER_STRAIN)
+    assert not above["stable"] and above["negative"] == 1 and above["lowest"][0] < 0
+    assert above["lowest"][1] > 0  # one mode only
+    assert above["kind"] == "bifurcation"
+    # the growth blend is geometric: the stretch at load fraction t is (1 + eps)^t
+    strain_lost = (1 + 1.25 * EULER_STRAIN) ** above["lost_at"] - 1.0
+    assert strain_lost == pytest.approx(EULER_STRAIN, rel=0.05)
+
+
+@pytest.mark.mpi
+def test_a_body_far_from_any_threshold_is_stable(shared_tmp):
+    """A free cube grown uniformly (stress-free) and the compatible quarter-arc bend of the
+    cantilever: every eigenvalue positive."""
+    for config, sets in ((CUBE, ["growth.eigenvalues.initial=[1.2, 1.2, 1.2]"]),
+                         (BEND, ["parameters.kappa=1.5707963"])):
+        out = shared_tmp / config.stem
+        args = [a for s in sets for a in ("--set", s)]
+        assert run_cli("solve", config, "--out", out, "-q", *args) == 0
+        stability = read_json(out / "summary.json")["stability"]
+        assert stability["stable"] and stability["negative"] == 0
+        assert min(stability["lowest"]) > 0 and stability["lost_at"] is None
+        read = RunSummary.from_json(read_json(out / "summary.json")).stability
+        assert read is not None and read.stable and read.lowest == tuple(stability["lowest"])
+
+
+class _Path:
+    """A stand-in for StabilityProblem: the lowest eigenvalues of a path, in order."""
+
+    def __init__(self, values):
+        self.values = iter(values)
+
+    def assess(self) -> Stability:
+        value = next(self.values)
+        return Stability((value,), int(value < 0))
+
+
+@pytest.mark.parametrize("ts, values, converged, expected", [
+    ((0.1, 0.3, 0.7, 1.0), (4.0, 3.0, -1.0, -2.0), True, (0.6, "bifurcation")),
+    ((0.1, 0.2, 0.25), (4.0, 1.0, 0.01), False, (0.25, "limit_point")),
+    ((0.1, 0.2, 0.25), (4.0, 3.0, 2.5), False, (None, None)),  # failed, not at a threshold
+    ((0.5, 1.0), (2.0, 1.0), True, (None, None)),
+])
+def test_where_a_path_loses_stability(ts, values, converged, expected):
+    """The crossing of zero, linear between the steps around it (4 -> 3 at 0.3 -> 0.7 with
+    3 -> -1: 0.3 + 0.4 x 3/4 = 0.6); a path that failed with its lowest eigenvalue below
+    1 % of its first met a limit point where it ended."""
+    watch = PathWatch(_Path(values))  # type: ignore[arg-type]
+    for t in ts:
+        watch(t)
+    lost_at, kind = watch.lost(ts[-1], converged)
+    assert kind == expected[1]
+    assert lost_at == (None if expected[0] is None else pytest.approx(expected[0]))
