@@ -91,3 +91,19 @@ def test_where_a_path_loses_stability(ts, values, converged, expected):
     lost_at, kind = watch.lost(ts[-1], converged)
     assert kind == expected[1]
     assert lost_at == (None if expected[0] is None else pytest.approx(expected[0]))
+
+
+@pytest.mark.mpi
+def test_a_run_reports_the_stability_of_its_optimum_and_of_its_verified_state(shared_tmp):
+    """The cantilever optimised towards the wave: both its optimum and the verified state
+    (its growth from rest on the refined mesh) are stable; the refined model's lowest
+    eigenvalue is near the run's mesh's (the same body, mesh-independent scale: within
+    10 %); summary.json reads back."""
+    out = shared_tmp / "run"
+    assert run_cli("run", CONFIGS / "tiny" / "beam_wave.yaml", "--out", out, "-q",
+                   "--set", "optimizer.max_iterations=3") == 0
+    summary = RunSummary.from_json(read_json(out / "summary.json"))
+    assert summary.stability is not None and summary.verified is not None
+    verified = summary.verified.stability
+    assert verified is not None and summary.stability.stable and verified.stable
+    assert verified.lowest[0] == pytest.approx(summary.stability.lowest[0], rel=0.1)

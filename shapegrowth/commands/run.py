@@ -44,6 +44,7 @@ from ..optim.refined import (
 )
 from ..physics import linear
 from ..physics.model import ForwardModel
+from ..physics.stability import StabilityProblem
 from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer
@@ -97,11 +98,15 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     with linear.counting() as tally:  # the linear solvers' fallbacks, all models
         done = optimise_levels(cfg, out, resume, timer)
         settled = settle(done)
+        with timer("forward"):  # the stability of the state the outputs show
+            stability = StabilityProblem(done.model.state)
+            optimum = stability.assess() if settled.final is not None else None
         with timer("io"):
-            write_outputs(out, done)
+            write_outputs(out, done, extra=[stability.mode] if optimum else [])
         verified = verify_best(cfg, done.model, settled)
     summary = dataclasses.replace(summarise(cfg, done, settled, verified, timer, resume),
-                                  linear_solver=linear_use(done.model.state.linear, tally))
+                                  linear_solver=linear_use(done.model.state.linear, tally),
+                                  stability=optimum)
     io.write_json(out / "summary.json", summary.to_json())
     report_run(summary, settled, out)
     return RunResult(summary, done.model)
@@ -237,14 +242,15 @@ def _value_from_rest(rf: ReducedFunctional) -> ObjectiveValue | None:
 
 
 # ---- outputs, verification, summary ----------------------------------------------------------
-def write_outputs(out: Path, done: Optimised) -> None:
-    """history.csv/png, fields.xdmf, growth.npz, shape.png, shape3d.png (frame.png for a
-    free 2D frame) at the state the best design left."""
+def write_outputs(out: Path, done: Optimised, extra: list | None = None) -> None:
+    """history.csv/png, fields.xdmf (with ``extra`` fields), growth.npz, shape.png,
+    shape3d.png (frame.png for a free 2D frame) at the state the best design left."""
     model, target = done.model, done.rf.target_points
     u, applied = model.displacement, model.applied
     io.write_history(out, done.history)
     io.write_fields(out / "fields.xdmf", u, applied,
-                    extra=[io.deformation_field(u), model.residual_strain_field()])
+                    extra=[io.deformation_field(u), model.residual_strain_field(),
+                           *(extra or [])])
     io.write_growth(out / "growth.npz", applied, model.cfg.mesh.refine)
     write_shape_png(out / "shape.png", u, applied.eigenvalues[0], target, "lambda_hat_1")
     write_shape3d_png(out / "shape3d.png", model.cfg, u, applied.eigenvalues[0], target,
@@ -310,6 +316,13 @@ def report_run(summary: RunSummary, settled: Settled, out: Path) -> None:
                     "growth path (hausdorff_from_rest in summary.json)", from_rest.hausdorff,
                     100 * from_rest.hausdorff / size, settled.hausdorff)
     _report_verified(summary.verified, rel)
+    for what, stability in (("the optimum on the run's mesh", summary.stability),
+                            ("the verified state", summary.verified.stability
+                             if summary.verified else None)):
+        if stability is not None and not stability.stable:
+            log.warning("%s is unstable: %d negative eigenvalue(s) of the tangent, the lowest "
+                        "%.4g (summary.json stability; the mode in fields.xdmf)", what,
+                        stability.negative, stability.lowest[0])
     log.info("%s after %d iterations: %s; self-reported %.3g %% (own mesh, the optimiser's "
              "path); rho_H %.4g -> %.4g", summary.status, summary.iterations,
              _verified_text(summary.verified), 100 * rel, summary.rho_H_initial or float("nan"),

@@ -115,6 +115,8 @@ class RunSummary:
                     out["verified"] = _plain(value)
                     if value.lifted is None:  # only a lifted reduced model has one
                         del out["verified"]["lifted"]
+                    out["verified"]["stability"] = (value.stability.to_json()
+                                                    if value.stability else None)
             elif f.name == "status":
                 out["status"] = str(value)
             elif f.name == "stability":
@@ -130,9 +132,7 @@ class RunSummary:
         names -= {"peak_memory_mb", "linear_solver", "stability"} - set(data)  # older ones
         common: dict[str, Any] = {k: data.get(k) for k in names}
         if data.get("stability"):
-            fields = {k: v for k, v in data["stability"].items() if k != "stable"}
-            fields["lowest"] = tuple(fields["lowest"])
-            common["stability"] = Stability(**fields)
+            common["stability"] = _stability(data["stability"])
         if data.get("linear_solver"):
             use = dict(data["linear_solver"])
             use["reasons"] = tuple(use.get("reasons", ()))
@@ -155,7 +155,16 @@ class RunSummary:
             fields = dict(data["verified"])
             lifted = fields.pop("lifted", None)
             verified = Verified(**fields, lifted=Lifted(**lifted) if lifted else None)
+            verified = dataclasses.replace(verified, stability=_stability(fields.get("stability")))
         return cls(**common, solve=solve, optimization=optimization, verified=verified)
+
+
+def _stability(data: dict[str, Any] | None) -> Stability | None:
+    """summary.json's ``stability`` (``stable`` is derived) read back."""
+    if not data:
+        return None
+    fields = {k: v for k, v in data.items() if k != "stable"}
+    return Stability(**{**fields, "lowest": tuple(fields["lowest"])})
 
 
 def _plain(value: Any) -> Any:

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from .. import compat
 from ..config import Config
 from ..physics.model import ForwardModel
+from ..physics.stability import Stability, StabilityProblem
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
 from .lift import Lifted
@@ -48,6 +49,7 @@ class Verified:
     branch_changed: bool  # from rest on the run's own mesh, another equilibrium than the run's
     status: str  # "solved", or "failed: <reason>"
     lifted: Lifted | None = None  # a reduced model's growth on its 3D body (verify.lift)
+    stability: Stability | None = None  # of the verified state (physics/stability.py)
 
     @property
     def headline(self) -> float | None:
@@ -97,8 +99,9 @@ def verify(model: ForwardModel, refine: int, branch_changed: bool = False) -> Ve
     objective = Objective(cfg, fine.state)
     hausdorff = objective.exact_hausdorff()
     relative = hausdorff / objective.target_size if objective.target_size > 0 else math.inf
+    stability = StabilityProblem(fine.state).assess()
     return Verified(hausdorff, relative, refine, dofs, time.perf_counter() - tic,
-                    branch_changed, "solved")
+                    branch_changed, "solved", stability=stability)
 
 
 def branch_changed(from_rest: float | None, own: float, target_size: float) -> bool:
