@@ -44,7 +44,7 @@ from ..optim.refined import (
 )
 from ..physics import linear
 from ..physics.model import ForwardModel
-from ..physics.stability import StabilityProblem
+from ..physics.stability import StabilityProblem, assess_or_none
 from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer
@@ -100,7 +100,7 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
         settled = settle(done)
         with timer("forward"):  # the stability of the state the outputs show
             stability = StabilityProblem(done.model.state)
-            optimum = stability.assess() if settled.final is not None else None
+            optimum = assess_or_none(stability) if settled.final is not None else None
         with timer("io"):
             write_outputs(out, done, extra=[stability.mode] if optimum else [])
         verified = verify_best(cfg, done.model, settled)

@@ -17,7 +17,7 @@ from ..io import files as io
 from ..io.summary import Dofs, LinearSolverUse, Probe, RunSummary, SolveMeasures
 from ..physics import linear
 from ..physics.model import ForwardModel
-from ..physics.stability import PathWatch, StabilityProblem
+from ..physics.stability import PathWatch, StabilityProblem, assess_or_none
 from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer, peak_memory_mb
@@ -77,13 +77,15 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
         watch = PathWatch(StabilityProblem(model.state))
         report = model.state.solve(watch=watch)
     with timer("forward"):  # the stability of the state found
-        now = watch.problem.assess()
+        stability = assess_or_none(watch.problem)
+    if stability is not None:
         lost_at, kind = watch.lost(report.reached, report.converged)
-        stability = dataclasses.replace(now, lost_at=lost_at, kind=kind)
-    log.info("stability: lowest eigenvalue %s, %d negative (%s)%s",
-             f"{stability.lowest[0]:.4g}" if stability.lowest else "none",
-             stability.negative, "stable" if stability.stable else "unstable",
-             f"; lost at {lost_at:.4f} of the growth ({kind})" if lost_at is not None else "")
+        stability = dataclasses.replace(stability, lost_at=lost_at, kind=kind)
+        log.info("stability: lowest eigenvalue %s, %d negative (%s)%s",
+                 f"{stability.lowest[0]:.4g}" if stability.lowest else "none",
+                 stability.negative, "stable" if stability.stable else "unstable",
+                 f"; lost at {lost_at:.4f} of the growth ({kind})" if lost_at is not None
+                 else "")
     status = Outcome.converged() if report.converged else Outcome.failed(report.reason)
     log.info("%s after %d load steps, %d Newton iterations (%.2f s)", status, report.steps,
              report.newton_iterations, report.seconds)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from .. import compat
 from ..config import Config
 from ..physics.model import ForwardModel
-from ..physics.stability import Stability, StabilityProblem
+from ..physics.stability import Stability, StabilityProblem, assess_or_none
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
 from .lift import Lifted
@@ -99,7 +99,7 @@ def verify(model: ForwardModel, refine: int, branch_changed: bool = False) -> Ve
     objective = Objective(cfg, fine.state)
     hausdorff = objective.exact_hausdorff()
     relative = hausdorff / objective.target_size if objective.target_size > 0 else math.inf
-    stability = StabilityProblem(fine.state).assess()
+    stability = assess_or_none(StabilityProblem(fine.state))
     return Verified(hausdorff, relative, refine, dofs, time.perf_counter() - tic,
                     branch_changed, "solved", stability=stability)
 

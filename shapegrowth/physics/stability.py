@@ -35,6 +35,7 @@ import dolfinx.fem
 import dolfinx.fem.petsc
 import numpy as np
 import ufl
+from petsc4py import PETSc
 
 from .. import compat
 from .options import SolverOptions
@@ -42,6 +43,13 @@ from .options import SolverOptions
 log = logging.getLogger(__name__)
 
 LIMIT_RATIO = 1e-2  # a failed path whose lowest eigenvalue fell below this share of its first
+# MUMPS's workspace relaxation (ICNTL(14), % over its estimate), raised where the LDL^T's
+# delayed pivots outgrow it (INFOG(1) = -9, seen on PETSc 3.22 with 2 ranks on a cube)
+WORKSPACE = (50, 200, 800)
+
+
+class StabilityError(RuntimeError):
+    """The eigenproblem could not be solved (reported; the solve's results are kept)."""
 
 
 @dataclass(frozen=True)
@@ -104,9 +112,20 @@ class StabilityProblem:
         self.K.zeroEntries()
         st.assemble_tangent(compat.petsc_vec(st.u), self.K)
         st.jacobian_assemblies -= 1  # not one of the state solver's own assemblies
-        self.eps.setOperators(self.K, self.M)
-        with self.options.pushed():
-            self.eps.solve()
+        failure = ""
+        for relax in WORKSPACE:
+            self.options.defaults["st_mat_mumps_icntl_14"] = relax
+            self.eps.setOperators(self.K, self.M)
+            try:
+                with self.options.pushed():
+                    self.eps.setFromOptions()
+                    self.eps.solve()
+                break
+            except PETSc.Error as err:  # MUMPS's INFOG(1) = -9: more workspace (PETSc 3.22)
+                self.eps.getST().getKSP().reset()
+                failure = f"PETSc error {err.ierr}"
+        else:
+            raise StabilityError(f"the tangent's eigenproblem failed ({failure})")
         factor = self.eps.getST().getKSP().getPC().getFactorMatrix()
         negative = int(factor.getMumpsInfog(12))
         pairs = []
@@ -132,6 +151,15 @@ def _global_max(f: dolfinx.fem.Function, local: float) -> float:
     return f.function_space.mesh.comm.allreduce(float(local), MPI.MAX)
 
 
+def assess_or_none(problem: StabilityProblem) -> Stability | None:
+    """:meth:`StabilityProblem.assess`, or None (said in one line) where it failed."""
+    try:
+        return problem.assess()
+    except StabilityError as err:
+        log.warning("stability not assessed: %s", err)
+        return None
+
+
 class PathWatch:
     """Follows the lowest eigenvalue along a solve from rest (``StateProblem.solve``'s
     ``watch``, called with the load fraction of each converged step)."""
@@ -141,7 +169,11 @@ class PathWatch:
         self.path: list[tuple[float, float, int]] = []  # (t, lowest, negative)
 
     def __call__(self, t: float) -> None:
-        s = self.problem.assess()
+        try:
+            s = self.problem.assess()
+        except StabilityError as err:
+            log.warning("stability at t = %.4f not assessed: %s", t, err)
+            return
         lowest = s.lowest[0] if s.lowest else float("nan")
         self.path.append((t, lowest, s.negative))
         log.debug("  stability at t = %.4f: lowest eigenvalue %.4g, %d negative", t, lowest,
