@@ -98,15 +98,17 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     with linear.counting() as tally:  # the linear solvers' fallbacks, all models
         done = optimise_levels(cfg, out, resume, timer)
         settled = settle(done)
-        with timer("forward"):  # the stability of the state the outputs show
-            stability = StabilityProblem(done.model.state)
-            optimum = assess_or_none(stability) if settled.final is not None else None
+        stability = None  # of the state the outputs show (none without a state)
+        if settled.final is not None:
+            with timer("forward"):
+                problem = StabilityProblem(done.model.state)
+                stability = assess_or_none(problem)
         with timer("io"):
-            write_outputs(out, done, extra=[stability.mode] if optimum else [])
+            write_outputs(out, done, extra=[problem.mode] if stability else [])
         verified = verify_best(cfg, done.model, settled)
     summary = dataclasses.replace(summarise(cfg, done, settled, verified, timer, resume),
                                   linear_solver=linear_use(done.model.state.linear, tally),
-                                  stability=optimum)
+                                  stability=stability)
     io.write_json(out / "summary.json", summary.to_json())
     report_run(summary, settled, out)
     return RunResult(summary, done.model)

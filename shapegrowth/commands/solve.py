@@ -3,7 +3,6 @@ growth and writes summary.json and fields.xdmf."""
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 from pathlib import Path
 from typing import Any
@@ -17,7 +16,7 @@ from ..io import files as io
 from ..io.summary import Dofs, LinearSolverUse, Probe, RunSummary, SolveMeasures
 from ..physics import linear
 from ..physics.model import ForwardModel
-from ..physics.stability import PathWatch, StabilityProblem, assess_or_none
+from ..physics.stability import PathWatch, StabilityProblem
 from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer, peak_memory_mb
@@ -77,10 +76,9 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
         watch = PathWatch(StabilityProblem(model.state))
         report = model.state.solve(watch=watch)
     with timer("forward"):  # the stability of the state found
-        stability = assess_or_none(watch.problem)
+        stability = watch.at(report.reached, report.converged)
     if stability is not None:
-        lost_at, kind = watch.lost(report.reached, report.converged)
-        stability = dataclasses.replace(stability, lost_at=lost_at, kind=kind)
+        lost_at, kind = stability.lost_at, stability.kind
         log.info("stability: lowest eigenvalue %s, %d negative (%s)%s",
                  f"{stability.lowest[0]:.4g}" if stability.lowest else "none",
                  stability.negative, "stable" if stability.stable else "unstable",

@@ -154,8 +154,9 @@ class RunSummary:
         if data.get("verified"):
             fields = dict(data["verified"])
             lifted = fields.pop("lifted", None)
-            verified = Verified(**fields, lifted=Lifted(**lifted) if lifted else None)
-            verified = dataclasses.replace(verified, stability=_stability(fields.get("stability")))
+            stability = _stability(fields.pop("stability", None))
+            verified = Verified(**fields, lifted=Lifted(**lifted) if lifted else None,
+                                stability=stability)
         return cls(**common, solve=solve, optimization=optimization, verified=verified)
 
 

@@ -90,10 +90,7 @@ class AdjointProblem:
             except PETSc.Error as err:  # factors unusable: fall back to fresh ones
                 log.debug("adjoint: the state's factors failed (PETSc error %d)", err.ierr)
         self.refinements = -1
-        self.A.zeroEntries()
-        # dolfinx 0.5's annotations miss this (singledispatch) overload
-        dolfinx.fem.petsc.assemble_matrix(self.A, st.jacobian_form, bcs=st.bcs)
-        self.A.assemble()
+        st.tangent_into(self.A)
         failure = self._fresh_solve(self.ksp, self.options)
         if failure and self.linear != "mumps":
             linear.record_fallback(self.role, self.linear, failure)

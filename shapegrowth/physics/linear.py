@@ -113,7 +113,8 @@ def _filter_options(name: str) -> dict[str, object]:
 
 
 def missing_package(name: str) -> str | None:
-    """The external package preset ``name`` needs and this PETSc lacks (None: all there)."""
+    """The external package preset ``name`` needs and this PETSc lacks (None: all there);
+    every preset needs MUMPS at least for the LU its failed solves fall back to."""
     need = {"mumps": "mumps", "mumps_ldlt": "mumps", "mumps_blr": "mumps",
             "gamg": "mumps", "hypre": "hypre"}[name]
     return None if has_package(need) else need

@@ -28,6 +28,7 @@ near zero (below ``LIMIT_RATIO`` of its first value) met a limit point, there.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass
 
@@ -35,6 +36,7 @@ import dolfinx.fem
 import dolfinx.fem.petsc
 import numpy as np
 import ufl
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import compat
@@ -108,10 +110,7 @@ class StabilityProblem:
 
     def assess(self) -> Stability:
         """The stability of the state's equilibrium now; ``self.mode`` the lowest mode."""
-        st = self.state
-        self.K.zeroEntries()
-        st.assemble_tangent(compat.petsc_vec(st.u), self.K)
-        st.jacobian_assemblies -= 1  # not one of the state solver's own assemblies
+        self.state.tangent_into(self.K)
         failure = ""
         for relax in WORKSPACE:
             self.options.defaults["st_mat_mumps_icntl_14"] = relax
@@ -146,8 +145,6 @@ class StabilityProblem:
 
 def _global_max(f: dolfinx.fem.Function, local: float) -> float:
     """The largest |value| of ``f`` over all ranks."""
-    from mpi4py import MPI
-
     return f.function_space.mesh.comm.allreduce(float(local), MPI.MAX)
 
 
@@ -167,6 +164,7 @@ class PathWatch:
     def __init__(self, problem: StabilityProblem):
         self.problem = problem
         self.path: list[tuple[float, float, int]] = []  # (t, lowest, negative)
+        self._last: tuple[float, Stability] | None = None  # the last step's, whole
 
     def __call__(self, t: float) -> None:
         try:
@@ -174,10 +172,22 @@ class PathWatch:
         except StabilityError as err:
             log.warning("stability at t = %.4f not assessed: %s", t, err)
             return
+        self._last = (t, s)
         lowest = s.lowest[0] if s.lowest else float("nan")
         self.path.append((t, lowest, s.negative))
         log.debug("  stability at t = %.4f: lowest eigenvalue %.4g, %d negative", t, lowest,
                   s.negative)
+
+    def at(self, reached: float, converged: bool) -> Stability | None:
+        """The stability where the solve ended (load fraction ``reached``), with where the
+        path lost it: the last step's assessment where that step ended the solve (the
+        problem's mode is then that state's), else assessed now."""
+        now = (self._last[1] if self._last is not None and self._last[0] == reached
+               else assess_or_none(self.problem))
+        if now is None:
+            return None
+        lost_at, kind = self.lost(reached, converged)
+        return dataclasses.replace(now, lost_at=lost_at, kind=kind)
 
     def lost(self, reached: float, converged: bool) -> tuple[float | None, str | None]:
         """(lost_at, kind) of the path watched, ending at ``reached`` (converged or not)."""

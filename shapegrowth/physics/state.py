@@ -222,12 +222,18 @@ class StateProblem:
         compat.set_bc(b, self.bcs, x, alpha=-1.0)
 
     def assemble_tangent(self, x: PETSc.Vec, A: PETSc.Mat) -> None:
-        """The tangent (5.12) at the current ``u`` into ``A`` (SNES's Jacobian)."""
+        """The tangent (5.12) at the current ``u`` into ``A`` (SNES's Jacobian, counted:
+        the SNES's linear solver holds factors once one was assembled)."""
+        self.tangent_into(A)
+        self.jacobian_assemblies += 1
+
+    def tangent_into(self, A: PETSc.Mat) -> None:
+        """The tangent (5.12) at the current ``u`` into ``A``, the clamped rows and columns
+        those of the identity (for the adjoint's and the stability's own matrices)."""
         A.zeroEntries()
         # dolfinx 0.5's annotations miss this (singledispatch) overload
         dolfinx.fem.petsc.assemble_matrix(A, self.jacobian_form, bcs=self.bcs)
         A.assemble()
-        self.jacobian_assemblies += 1
 
     chord_contraction = 0.5  # a chord step must halve the residual to go on
 
