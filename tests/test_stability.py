@@ -21,13 +21,15 @@ CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"
 EULER_STRAIN = math.pi**2 / 3.0 * (0.02 / 1.0) ** 2  # 1.316e-3
 
 
-def _solve(shared_tmp, strain: float) -> dict:
-    out = shared_tmp / f"strain-{strain:.3e}"
+def _solve(shared_tmp, strain: float, *sets: str, name: str = "") -> dict:
+    out = shared_tmp / f"strain-{strain:.3e}{name}"
+    args = [a for s in sets for a in ("--set", s)]
     assert run_cli("solve", BEND, "--out", out, "-q", "--set", "mesh.cells=hex",
                    "--set", f"mesh.cache_dir={shared_tmp}",
                    "--set", "boundary.clamp=[x1_min, x1_max]",
-                   "--set", f"growth.eigenvalues.initial=[{(1 + strain) ** 2}, 1, 1]") == 0
-    return read_json(out / "summary.json")["stability"]
+                   "--set", f"growth.eigenvalues.initial=[{(1 + strain) ** 2}, 1, 1]",
+                   "--probe", "0.5,0,0", *args) == 0
+    return read_json(out / "summary.json")
 
 
 @pytest.mark.mpi
@@ -36,16 +38,57 @@ def test_a_bar_held_at_both_ends_buckles_at_eulers_strain(shared_tmp):
     straight bar is stable, by 1.25 of it unstable with one negative eigenvalue, and the
     path from rest loses stability where the growth strain is Euler's, to 5 % (measured
     1.354e-3 against 1.316e-3: +2.9 %, the width's plate stiffening and the mesh)."""
-    below = _solve(shared_tmp, 0.8 * EULER_STRAIN)
+    below = _solve(shared_tmp, 0.8 * EULER_STRAIN)["stability"]
     assert below["stable"] and below["negative"] == 0 and below["lowest"][0] > 0
     assert below["lost_at"] is None and below["kind"] is None
-    above = _solve(shared_tmp, 1.25 * EULER_STRAIN)
+    above = _solve(shared_tmp, 1.25 * EULER_STRAIN)["stability"]
     assert not above["stable"] and above["negative"] == 1 and above["lowest"][0] < 0
     assert above["lowest"][1] > 0  # one mode only
     assert above["kind"] == "bifurcation"
     # the growth blend is geometric: the stretch at load fraction t is (1 + eps)^t
     strain_lost = (1 + 1.25 * EULER_STRAIN) ** above["lost_at"] - 1.0
     assert strain_lost == pytest.approx(EULER_STRAIN, rel=0.05)
+    assert above["branch"] == "followed" and above["switched_at"] is None
+
+
+def _midspan_deflection(summary: dict) -> float:
+    (probe,) = summary["probes"]
+    return abs(probe["deformed"][2])
+
+
+@pytest.mark.mpi
+def test_past_eulers_strain_the_switch_finds_the_buckled_bar(shared_tmp):
+    """Past the threshold (1.25 of Euler's strain) the straight bar is unstable; solver.branch
+    switch leaves it along the critical mode for the buckled bar, stable, whose midspan
+    deflection is the inextensible elastica's A = (2L/pi) sqrt(eps - eps_c) (the extra
+    length (eps - eps_c) L taken up by w = A/2 (1 - cos 2 pi x/L), the axial strain held at
+    the threshold; eps_c the path's own, where it lost stability) to 5 % (measured 0.0108
+    against 0.0109).  follow stays straight and unstable."""
+    strain = 1.25 * EULER_STRAIN
+    followed = _solve(shared_tmp, strain, name="follow")
+    assert followed["stability"]["negative"] == 1
+    assert _midspan_deflection(followed) < 1e-10
+    switched = _solve(shared_tmp, strain, "solver.branch=switch", name="switch")
+    stability = switched["stability"]
+    assert stability["stable"] and stability["negative"] == 0 and stability["lowest"][0] > 0
+    assert stability["branch"] == "switched" and stability["kind"] == "bifurcation"
+    assert stability["lost_at"] <= stability["switched_at"] <= 1.0
+    eps_c = (1 + strain) ** stability["lost_at"] - 1.0
+    elastica = 2.0 / math.pi * math.sqrt(strain - eps_c)
+    assert _midspan_deflection(switched) == pytest.approx(elastica, rel=0.05)
+
+
+@pytest.mark.mpi
+def test_the_ldlt_factorisation_watches_the_path_by_its_inertia(shared_tmp):
+    """With the LDL^T (solver.linear mumps_ldlt) the path is watched by the factorisation's
+    inertia: the same stability at the end, and the loss placed at the first load step found
+    unstable (at or after the crossing the eigenvalues give)."""
+    strain = 1.25 * EULER_STRAIN
+    lu = _solve(shared_tmp, strain, "solver.linear=mumps", name="lu")["stability"]
+    ldlt = _solve(shared_tmp, strain, "solver.linear=mumps_ldlt", name="ldlt")["stability"]
+    assert ldlt["negative"] == lu["negative"] == 1
+    assert ldlt["lowest"] == pytest.approx(lu["lowest"], rel=1e-6)
+    assert ldlt["kind"] == "bifurcation" and ldlt["lost_at"] >= lu["lost_at"]
 
 
 @pytest.mark.mpi
@@ -66,6 +109,8 @@ def test_a_body_far_from_any_threshold_is_stable(shared_tmp):
 
 class _Path:
     """A stand-in for StabilityProblem: the lowest eigenvalues of a path, in order."""
+
+    state = None  # no inertia: every step assessed
 
     def __init__(self, values):
         self.values = iter(values)

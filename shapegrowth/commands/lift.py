@@ -23,6 +23,7 @@ from ..io.summary import RunSummary
 from ..optim.lift import Lifted, lifted_model, verification_model
 from ..optim.refined import refined_config
 from ..physics.model import ForwardModel
+from ..physics.stability import describe
 
 log = logging.getLogger(__name__)
 
@@ -66,7 +67,9 @@ def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
                     extra=[io.deformation_field(solid.state.u)])
     verified = summary.verified
     io.write_json(out / "lift.json", {
-        "run": str(run_dir), "lifted": dataclasses.asdict(lifted),
+        "run": str(run_dir),
+        "lifted": {**dataclasses.asdict(lifted), "stability": (
+            lifted.stability.to_json() if lifted.stability else None)},
         "reduced_verified": verified.relative if verified else None,
         "reduced_self": summary.relative_error})
     if lifted.relative is None:
@@ -81,5 +84,6 @@ def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
                  "section's shape by up to %s of the target size", 100 * lifted.relative,
                  solid_cfg.name, lifted.dofs, lifted.wall_s, reduced, own,
                  "n/a" if lifted.departure is None else f"{100 * lifted.departure:.3g} %")
+    log.info("the 3D body's stability: %s", describe(lifted.stability))
     log.info("wrote %s", out / "lift.json")
     return lifted

@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from ..config import load, resolved
-from ..errors import InputError, StateSolveError
+from ..config import load
+from ..errors import StateSolveError
 from ..io import files as io
 from ..io.along import VerifyEvery
 from ..io.checkpoint import CheckpointFile
@@ -32,7 +32,7 @@ from ..optim.callbacks import FromRestEvery, ProgressLog, ProgressTolerance, Ret
 from ..optim.driver import Driver, DriverSettings
 from ..optim.interface import Callback, Record
 from ..optim.levels import level_config
-from ..optim.lift import check_liftable, lift, lift_growth, verification_model
+from ..optim.lift import lift, verification_model
 from ..optim.objective import ObjectiveValue
 from ..optim.problem import Evaluation, ReducedFunctional
 from ..optim.refined import (
@@ -49,6 +49,7 @@ from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer
 from .solve import base_summary, linear_use
+from .starts import start_growth
 
 log = logging.getLogger(__name__)
 
@@ -160,38 +161,9 @@ def optimise_levels(cfg, out: Path, resume: bool, timer: Timer) -> Optimised:
 def _level_model(cfg, level_cfg, k: int) -> ForwardModel:
     """The level's model; the first level's growth started as ``growth.start`` asks."""
     model = ForwardModel.build(level_cfg)
-    if k == 0 and cfg.growth.start == "lifted":
-        _start_lifted(model, Path(resolved(cfg.growth.from_run)))
-    if k == 0 and cfg.growth.start == "run":
-        _start_from_run(model, Path(resolved(cfg.growth.from_run)))
+    if k == 0:
+        start_growth(model, cfg)
     return model
-
-
-def _start_lifted(model: ForwardModel, run_dir: Path) -> None:
-    """growth.start: lifted: the 2D section run's best growth, extruded or revolved onto
-    ``model``'s 3D body (its initial growth and design)."""
-    from .lift import reduced_run
-
-    reduced_cfg, summary, reduced = reduced_run(run_dir, solve=False)
-    check_liftable(reduced_cfg, model.cfg)
-    lift_growth(reduced_cfg, reduced.state.applied, model)
-    log.info("growth.start: lifted from %s (its verified error %s)", run_dir,
-             f"{100 * summary.verified.relative:.3g} %" if summary.verified and
-             summary.verified.relative is not None else "not measured")
-
-
-def _start_from_run(model: ForwardModel, run_dir: Path) -> None:
-    """growth.start: run: the best growth of a finished run on the same mesh, field by field
-    (fields it lacks, such as a fixed frame's angles, keep their initial values)."""
-    applied = model.state.applied
-    try:
-        names = io.read_growth(run_dir / "growth.npz", applied, partial=True)
-    except ValueError as err:
-        raise InputError(f"growth.from_run: {err}; start: run needs the same body and the "
-                         "mesh of this run's first level") from None
-    model.growth.assign(applied.values())
-    log.info("growth.start: %s from %s", ", ".join(names), run_dir)
-
 
 
 def _level_callbacks(cfg, out: Path, resume: bool, timer: Timer, k: int,

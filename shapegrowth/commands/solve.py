@@ -16,11 +16,12 @@ from ..io import files as io
 from ..io.summary import Dofs, LinearSolverUse, Probe, RunSummary, SolveMeasures
 from ..physics import linear
 from ..physics.model import ForwardModel
-from ..physics.stability import PathWatch, StabilityProblem
+from ..physics.stability import describe, solve_watched
 from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer, peak_memory_mb
 from ..version import __version__
+from .starts import start_growth
 
 log = logging.getLogger(__name__)
 
@@ -65,6 +66,7 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
         on_mesh[:, :2] = section.coordinates_of(probes)
     with timer("forward"):
         model = ForwardModel.build(cfg)
+        start_growth(model, cfg)  # growth.start: run or lifted
     if len(probes):
         outside = np.isnan(compat.evaluate_at_points(model.state.u, on_mesh)[:, 0])
         if outside.any():
@@ -72,18 +74,10 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
             raise InputError(f"--probe {bad}: the point is outside the reference body")
     log.info("solving %s: %d state DOFs, growth %s", cfg.name,
              compat.global_size(model.state.V), cfg.growth.frame)
-    with timer("forward"):
-        watch = PathWatch(StabilityProblem(model.state))
-        report = model.state.solve(watch=watch)
-    with timer("forward"):  # the stability of the state found
-        stability = watch.at(report.reached, report.converged)
+    with timer("forward"):  # the path watched, and the stability of the state found
+        report, stability, stability_problem = solve_watched(model.state, cfg.solver.branch)
     if stability is not None:
-        lost_at, kind = stability.lost_at, stability.kind
-        log.info("stability: lowest eigenvalue %s, %d negative (%s)%s",
-                 f"{stability.lowest[0]:.4g}" if stability.lowest else "none",
-                 stability.negative, "stable" if stability.stable else "unstable",
-                 f"; lost at {lost_at:.4f} of the growth ({kind})" if lost_at is not None
-                 else "")
+        log.info("stability: %s", describe(stability))
     status = Outcome.converged() if report.converged else Outcome.failed(report.reason)
     log.info("%s after %d load steps, %d Newton iterations (%.2f s)", status, report.steps,
              report.newton_iterations, report.seconds)
@@ -110,7 +104,7 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
                     else probes[:, :cfg.dim] + u)
     with timer("io"):
         io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
-                        extra=[model.residual_strain_field(), watch.problem.mode])
+                        extra=[model.residual_strain_field(), stability_problem.mode])
     measures = SolveMeasures(
         volume_reference=vol_ref, volume_deformed=vol_def, stress_l2=model.stress_norm(),
         residual_strain=model.residual_strain_norm(),

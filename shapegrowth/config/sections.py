@@ -304,6 +304,11 @@ class SolverConfig:
         "preset's failed solve is done again with mumps, counted in summary.json "
         "linear_solver (measurements: docs/PERFORMANCE.md, \"Linear solvers\")", "auto",
         choices=("mumps", "mumps_ldlt", "mumps_blr", "gamg", "hypre", "auto"))
+    branch: str = option(
+        "past a bifurcation, a solve from rest (solve, the verification, a lift) follows the "
+        "path it is on, now unstable (follow), or leaves it for a stable branch by a "
+        "perturbation along the critical mode (switch), as a real body does; summary.json "
+        "stability says which branch it ended on", "follow", choices=("follow", "switch"))
     line_search: str = option("SNES line search (basic is plain Newton, fastest here)", "basic",
                               choices=("basic", "bt", "l2", "cp"))
     max_newton_iterations: int = option("Newton iterations per continuation step", 15, ge=1)

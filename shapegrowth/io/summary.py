@@ -115,6 +115,10 @@ class RunSummary:
                     out["verified"] = _plain(value)
                     if value.lifted is None:  # only a lifted reduced model has one
                         del out["verified"]["lifted"]
+                    else:
+                        out["verified"]["lifted"]["stability"] = (
+                            value.lifted.stability.to_json() if value.lifted.stability
+                            else None)
                     out["verified"]["stability"] = (value.stability.to_json()
                                                     if value.stability else None)
             elif f.name == "status":
@@ -155,6 +159,9 @@ class RunSummary:
             fields = dict(data["verified"])
             lifted = fields.pop("lifted", None)
             stability = _stability(fields.pop("stability", None))
+            if lifted:
+                lifted = dict(lifted)
+                lifted["stability"] = _stability(lifted.get("stability"))
             verified = Verified(**fields, lifted=Lifted(**lifted) if lifted else None,
                                 stability=stability)
         return cls(**common, solve=solve, optimization=optimization, verified=verified)

@@ -32,6 +32,7 @@ from .. import compat
 from ..config import GEOMETRY_PARAMS, Config, ConfigError
 from ..physics.growth import Growth
 from ..physics.model import ForwardModel
+from ..physics.stability import Stability, solve_watched
 from ..physics.transfer import interpolate_between_meshes
 from .objective import Objective
 
@@ -51,6 +52,7 @@ class Lifted:
     # the largest distance of a 3D node from where the section puts it, over the 3D target's
     # size (None where either solve failed, or the section's state is not known)
     departure: float | None = None
+    stability: Stability | None = None  # of the 3D body's state, its path from rest watched
 
 
 def check_liftable(reduced: Config, solid: Config) -> None:
@@ -113,19 +115,23 @@ def lifted_model(model: ForwardModel, solid_cfg: Config, compare: bool = True
     tic = time.perf_counter()
     solid = ForwardModel.build(solid_cfg, model.comm)
     lift_growth(model.cfg, model.state.applied, solid)
-    report = solid.state.solve()
+    # the branch: switch where the reduced run's config or the 3D config asks for it
+    branch = "switch" if "switch" in (model.cfg.solver.branch, solid_cfg.solver.branch) \
+        else "follow"
+    report, stability, _ = solve_watched(solid.state, branch)
     dofs = compat.global_size(solid.state.V)
     if not report.converged:
         log.warning("lift: no equilibrium of the 3D body from rest: %s", report.reason)
         return Lifted(None, None, dofs, time.perf_counter() - tic, f"failed: {report.reason}",
-                      solid_cfg.name), solid
+                      solid_cfg.name, stability=stability), solid
     objective = Objective(solid_cfg, solid.state)
     hausdorff = objective.exact_hausdorff()
     size = objective.target_size
     relative = hausdorff / size if size > 0 else math.inf
     leaves = departure(model, solid) if compare else None
     return Lifted(hausdorff, relative, dofs, time.perf_counter() - tic, "solved",
-                  solid_cfg.name, None if leaves is None or size <= 0 else leaves / size), solid
+                  solid_cfg.name, None if leaves is None or size <= 0 else leaves / size,
+                  stability), solid
 
 
 def departure(model: ForwardModel, solid: ForwardModel) -> float | None:

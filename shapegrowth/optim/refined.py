@@ -5,7 +5,8 @@ starts followed.  The body a user grows has neither: it starts at rest and is a 
 :func:`verify` carries the growth the body was given (the filtered fields lambda_hat,
 theta_hat) onto the run's mesh refined ``refine`` times - nested, so a Lagrange field of
 the growth's degree carries over exactly - solves the state there from rest by
-continuation, and measures the exact Hausdorff distance to the target at the refined
+continuation (its path watched for stability, and left for a stable branch where
+``solver.branch`` is switch), and measures the exact Hausdorff distance to the target at the refined
 model's sample points.  That is the number a run leads with (summary.json ``verified``).
 
 Where the verified error exceeds the run's own by more than :data:`TOLERATED`, the likely
@@ -25,7 +26,7 @@ from dataclasses import dataclass
 from .. import compat
 from ..config import Config
 from ..physics.model import ForwardModel
-from ..physics.stability import Stability, StabilityProblem, assess_or_none
+from ..physics.stability import Stability, solve_watched
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
 from .lift import Lifted
@@ -78,10 +79,16 @@ def grown_from_rest(model: ForwardModel, cfg: Config) -> tuple[ForwardModel, Sol
     """The growth ``model`` is in equilibrium with, carried onto the discretisation of
     ``cfg`` (exactly where its mesh is nested in ``model``'s) and solved there from rest
     (collective): the verification's model, and the study's reference."""
+    other = carried_to(model, cfg)
+    return other, other.state.solve()
+
+
+def carried_to(model: ForwardModel, cfg: Config) -> ForwardModel:
+    """A model of ``cfg`` at rest, given the growth ``model`` is in equilibrium with."""
     other = ForwardModel.build(cfg, model.comm)
     for source, target in zip(model.state.applied.fields, other.growth.fields):
         interpolate_between_meshes(source, target)
-    return other, other.state.solve()
+    return other
 
 
 def verify(model: ForwardModel, refine: int, branch_changed: bool = False) -> Verified:
@@ -89,17 +96,17 @@ def verify(model: ForwardModel, refine: int, branch_changed: bool = False) -> Ve
     solved from rest (collective)."""
     tic = time.perf_counter()
     cfg = refined_config(model.cfg, refine)
-    fine, report = grown_from_rest(model, cfg)
+    fine = carried_to(model, cfg)
+    report, stability, _ = solve_watched(fine.state, cfg.solver.branch)
     dofs = compat.global_size(fine.state.V)
     if not report.converged:
         log.warning("verification: no equilibrium from rest on the refined mesh: %s",
                     report.reason)
         return Verified(None, None, refine, dofs, time.perf_counter() - tic, branch_changed,
-                        f"failed: {report.reason}")
+                        f"failed: {report.reason}", stability=stability)
     objective = Objective(cfg, fine.state)
     hausdorff = objective.exact_hausdorff()
     relative = hausdorff / objective.target_size if objective.target_size > 0 else math.inf
-    stability = assess_or_none(StabilityProblem(fine.state))
     return Verified(hausdorff, relative, refine, dofs, time.perf_counter() - tic,
                     branch_changed, "solved", stability=stability)
 

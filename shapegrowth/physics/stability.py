@@ -22,8 +22,22 @@ eigenvalues, however far from 0 they are: ``negative``.  The few eigenvalues nea
 Along a growth path (:class:`PathWatch`, called at each converged load step of a solve from
 rest) the lowest eigenvalue is followed; where it first crosses zero the path has met a
 bifurcation, and ``lost_at`` is the load fraction of the crossing, linear between the two
-steps around it.  A path that ends short of its growth with its lowest eigenvalue fallen to
-near zero (below ``LIMIT_RATIO`` of its first value) met a limit point, there.
+steps around it.  Where the state's own factorisation is an LDL^T (``solver.linear``
+mumps_ldlt, mumps_blr, and auto on large 3D models) its inertia comes free with every Newton
+step: the path is then watched by it, and the eigenproblem is solved only at the first step,
+where the inertia turns negative and at the end; ``lost_at`` is then the first load step found
+unstable (the crossing lies within the step before it).  A path that ends short of its growth
+with its lowest eigenvalue fallen to near zero (below ``LIMIT_RATIO`` of its first value) met a
+limit point, there.
+
+Past a bifurcation the path from rest goes on along the equilibrium it followed, now unstable
+(``solver.branch: follow``), or leaves it for a stable one (``switch``), as a real body with
+its imperfections would: the state is moved along the critical mode by the amplitude that
+lowers the energy most (doubling from 1e-3 of the body's size while the energy falls, both
+signs tried), Newton's method finds the equilibrium there, and it is kept where it has fewer
+negative eigenvalues than the one left (else the path is followed, and tried again at the next
+step, ``MAX_SWITCHES`` tries in all).  ``branch`` says where the solve ended: ``followed``
+(the path from rest) or ``switched`` (at ``switched_at``).
 """
 
 from __future__ import annotations
@@ -40,7 +54,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import compat
+from .boundary import body_box
 from .options import SolverOptions
+from .state import SolveReport
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +64,10 @@ LIMIT_RATIO = 1e-2  # a failed path whose lowest eigenvalue fell below this shar
 # MUMPS's workspace relaxation (ICNTL(14), % over its estimate), raised where the LDL^T's
 # delayed pivots outgrow it (INFOG(1) = -9, seen on PETSc 3.22 with 2 ranks on a cube)
 WORKSPACE = (50, 200, 800)
+MAX_SWITCHES = 3  # tries at leaving an unstable path, per solve
+FIRST_AMPLITUDE = 1e-3  # of the body's size: the first perturbation along the critical mode
+LARGEST_AMPLITUDE = 0.25  # of the body's size
+BRANCHES = ("follow", "switch")
 
 
 class StabilityError(RuntimeError):
@@ -63,6 +83,8 @@ class Stability:
     negative: int
     lost_at: float | None = None  # load fraction where the path first lost stability
     kind: str | None = None  # None, "bifurcation" or "limit_point"
+    branch: str = "followed"  # "followed" (the path from rest) or "switched"
+    switched_at: float | None = None  # load fraction where the solve left the path
 
     @property
     def stable(self) -> bool:
@@ -70,7 +92,8 @@ class Stability:
 
     def to_json(self) -> dict[str, object]:
         return {"lowest": list(self.lowest), "stable": self.stable, "negative": self.negative,
-                "lost_at": self.lost_at, "kind": self.kind}
+                "lost_at": self.lost_at, "kind": self.kind, "branch": self.branch,
+                "switched_at": self.switched_at}
 
 
 class StabilityProblem:
@@ -91,6 +114,7 @@ class StabilityProblem:
         self.M.assemble()
         self.K = dolfinx.fem.petsc.create_matrix(state.jacobian_form)
         self.mode = dolfinx.fem.Function(V, name="stability_mode")
+        self._energy: dolfinx.fem.Form | None = None
         self.options = SolverOptions(self.role, {
             "st_ksp_type": "preonly", "st_pc_type": "cholesky",
             "st_pc_factor_mat_solver_type": "mumps",
@@ -107,6 +131,14 @@ class StabilityProblem:
         self.eps.getST().setType(SLEPc.ST.Type.SINVERT)
         with self.options.pushed():
             self.eps.setFromOptions()
+
+    def energy(self) -> float:
+        """The state's total energy Pi(u) at its current displacement (collective)."""
+        if self._energy is None:
+            self._energy = dolfinx.fem.form(self.state.energy)
+        self.state.u.x.scatter_forward()
+        local = dolfinx.fem.assemble_scalar(self._energy)
+        return float(self.state.domain.mesh.comm.allreduce(local, MPI.SUM))
 
     def assess(self) -> Stability:
         """The stability of the state's equilibrium now; ``self.mode`` the lowest mode."""
@@ -158,50 +190,151 @@ def assess_or_none(problem: StabilityProblem) -> Stability | None:
 
 
 class PathWatch:
-    """Follows the lowest eigenvalue along a solve from rest (``StateProblem.solve``'s
-    ``watch``, called with the load fraction of each converged step)."""
+    """Follows the stability along a solve from rest (``StateProblem.solve``'s ``watch``,
+    called with the load fraction of each converged step; it returns True where it moved the
+    state onto another branch).  ``switch``: leave an unstable path (module doc)."""
 
-    def __init__(self, problem: StabilityProblem):
-        self.problem = problem
-        self.path: list[tuple[float, float, int]] = []  # (t, lowest, negative)
-        self._last: tuple[float, Stability] | None = None  # the last step's, whole
+    def __init__(self, problem: StabilityProblem, switch: bool = False):
+        self.problem, self.switch = problem, switch
+        self.path: list[tuple[float, float, int]] = []  # (t, lowest or NaN, negative)
+        self._last: tuple[float, Stability] | None = None  # the last full assessment
+        self.switched_at: float | None = None
+        self._tries = 0
 
-    def __call__(self, t: float) -> None:
+    def __call__(self, t: float) -> bool:
+        state = self.problem.state
+        negative = state.inertia() if self.path and state is not None else None
+        if negative == 0:  # stable, known from the Newton step's own LDL^T
+            self.path.append((t, float("nan"), 0))
+            log.debug("  stability at t = %.4f: no negative pivot", t)
+            return False
         try:
             s = self.problem.assess()
         except StabilityError as err:
             log.warning("stability at t = %.4f not assessed: %s", t, err)
-            return
+            return False
         self._last = (t, s)
         lowest = s.lowest[0] if s.lowest else float("nan")
         self.path.append((t, lowest, s.negative))
         log.debug("  stability at t = %.4f: lowest eigenvalue %.4g, %d negative", t, lowest,
                   s.negative)
+        if s.stable or not self.switch or self._tries >= MAX_SWITCHES:
+            return False
+        self._tries += 1
+        after = switch_branch(self.problem, s)
+        if after is None:
+            log.info("  stability lost at t = %.4f; no stable branch found along the critical "
+                     "mode: the path is followed", t)
+            return False
+        log.info("  stability lost at t = %.4f (lowest eigenvalue %.4g, %d negative): switched "
+                 "along the critical mode to a branch with %d negative", t, lowest, s.negative,
+                 after.negative)
+        self._last = (t, after)
+        self.switched_at = t
+        return True
 
     def at(self, reached: float, converged: bool) -> Stability | None:
         """The stability where the solve ended (load fraction ``reached``), with where the
-        path lost it: the last step's assessment where that step ended the solve (the
-        problem's mode is then that state's), else assessed now."""
+        path lost it and the branch it ended on: the last step's assessment where that step
+        ended the solve (the problem's mode is then that state's), else assessed now."""
         now = (self._last[1] if self._last is not None and self._last[0] == reached
                else assess_or_none(self.problem))
         if now is None:
             return None
-        lost_at, kind = self.lost(reached, converged)
-        return dataclasses.replace(now, lost_at=lost_at, kind=kind)
+        lost_at, kind = self.lost(reached, converged, now)
+        return dataclasses.replace(
+            now, lost_at=lost_at, kind=kind,
+            branch="followed" if self.switched_at is None else "switched",
+            switched_at=self.switched_at)
 
-    def lost(self, reached: float, converged: bool) -> tuple[float | None, str | None]:
-        """(lost_at, kind) of the path watched, ending at ``reached`` (converged or not)."""
+    def lost(self, reached: float, converged: bool,
+             end: Stability | None = None) -> tuple[float | None, str | None]:
+        """(lost_at, kind) of the path watched, ending at ``reached`` (converged or not) in
+        the state ``end`` (default: the last step's)."""
         previous: tuple[float, float, int] | None = None
         for t, lowest, negative in self.path:
             if negative > 0:
                 if previous is None:
                     return t, "bifurcation"
                 t0, l0, _ = previous
-                crossing = t0 + (t - t0) * l0 / (l0 - lowest) if l0 != lowest else t
+                if not (np.isfinite(l0) and np.isfinite(lowest)) or l0 == lowest:
+                    return t, "bifurcation"  # known from the inertia: within (t0, t]
+                crossing = t0 + (t - t0) * l0 / (l0 - lowest)
                 return float(min(max(crossing, t0), t)), "bifurcation"
             previous = (t, lowest, negative)
-        if not converged and len(self.path) >= 2:
-            first, last = self.path[0][1], self.path[-1][1]
-            if first > 0 and 0 <= last < LIMIT_RATIO * first:
-                return reached, "limit_point"
+        first = self.path[0][1] if self.path else float("nan")
+        last = end.lowest[0] if end is not None and end.lowest else (
+            self.path[-1][1] if self.path else float("nan"))
+        if not converged and len(self.path) >= 2 and first > 0 and \
+                0 <= last < LIMIT_RATIO * first:
+            return reached, "limit_point"
         return None, None
+
+
+def switch_branch(problem: StabilityProblem, before: Stability) -> Stability | None:
+    """Move the state's equilibrium, unstable as ``before`` says, along the problem's lowest
+    mode by the amplitude that lowers the energy most, and find the equilibrium there; keep it
+    where it has fewer negative eigenvalues (returned), else put the state back (None)."""
+    state = problem.state
+    start = state.u.x.array.copy()
+    mode = problem.mode.x.array.copy()
+    e0 = problem.energy()
+    lo, hi = body_box(state.domain.mesh)
+    size = float(np.linalg.norm(hi - lo))
+    best = (e0, 0.0)
+    for sign in (1.0, -1.0):
+        amplitude = FIRST_AMPLITUDE * size
+        previous = np.inf
+        while amplitude <= LARGEST_AMPLITUDE * size:
+            state.u.x.array[:] = start + sign * amplitude * mode
+            e = problem.energy()
+            if not np.isfinite(e) or e >= previous:
+                break
+            previous = e
+            if e < best[0]:
+                best = (e, sign * amplitude)
+            amplitude *= 2.0
+    if best[1] == 0.0:  # the energy does not fall along the mode (to round-off)
+        best = (e0, FIRST_AMPLITUDE * size)
+    state.u.x.array[:] = start + best[1] * mode
+    ok, _, reason = state.equilibrate()
+    after = None
+    if ok:
+        try:
+            after = problem.assess()
+        except StabilityError as err:
+            log.warning("stability after a branch switch not assessed: %s", err)
+    else:
+        log.debug("  branch switch: no equilibrium from the perturbed state (%s)", reason)
+    if after is not None and after.negative < before.negative:
+        return after
+    state.u.x.array[:] = start
+    state.u.x.scatter_forward()
+    if after is not None:  # the problem's mode back to the state kept
+        problem.assess()
+    return None
+
+
+def solve_watched(state, branch: str = "follow") -> tuple[SolveReport, Stability | None,
+                                                         StabilityProblem]:
+    """``state.solve()`` with its path watched (and, ``branch`` "switch", left where it
+    loses stability): the report, the stability where it ended (None where not assessed)
+    and the problem, whose ``mode`` is that state's lowest mode (collective)."""
+    problem = StabilityProblem(state)
+    watch = PathWatch(problem, switch=branch == "switch")
+    report = state.solve(watch=watch)
+    return report, watch.at(report.reached, report.converged), problem
+
+
+def describe(stability: Stability | None) -> str:
+    """One line on a stability, for the log."""
+    if stability is None:
+        return "not assessed"
+    lowest = f"{stability.lowest[0]:.4g}" if stability.lowest else "none"
+    text = (f"lowest eigenvalue {lowest}, {stability.negative} negative "
+            f"({'stable' if stability.stable else 'unstable'})")
+    if stability.lost_at is not None:
+        text += f"; lost at {stability.lost_at:.4f} of the growth ({stability.kind})"
+    if stability.switched_at is not None:
+        text += f"; switched branch at {stability.switched_at:.4f}"
+    return text

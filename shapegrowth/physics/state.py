@@ -193,6 +193,7 @@ class StateProblem:
             self.A.setNearNullSpace(rigid_body_modes(self.V))
         self._exact: tuple[PETSc.KSP, SolverOptions] | None = None  # made at a fallback
         self._preset_failures = 0  # the preset's failed solves in a row
+        self._factored_by_preset = False  # the last Newton solve's factors are the preset's
         return snes
 
     def exact_ksp(self) -> tuple[PETSc.KSP, SolverOptions]:
@@ -279,12 +280,14 @@ class StateProblem:
         tolerance is taken of (default: the residual at the start); ``rtol``: that
         tolerance (default solver.rtol).  Where the preset's linear solve fails, the same
         solve again from the same start with the exact factorisation (linear.py)."""
+        self._factored_by_preset = False
         if self._preset_failures >= linear.GIVE_UP_AFTER:  # the preset does not hold here
             return self._exact_solve(reference, rtol)
         start = self.u.x.array.copy() if self.linear != "mumps" else None
         ok, its, reason, linear_failed = self._snes_solve(reference, rtol)
         if not linear_failed or start is None:
             self._preset_failures = 0
+            self._factored_by_preset = its > 0
             return ok, its, reason
         linear.record_fallback(self.role, self.linear, reason)
         linear.reset_after_failure(self.snes.getKSP())
@@ -294,6 +297,23 @@ class StateProblem:
         self.u.x.array[:] = start
         ok, more, reason = self._exact_solve(reference, rtol)
         return ok, its + more, reason
+
+    def equilibrate(self) -> tuple[bool, int, str]:
+        """Newton's method from the current displacement under the growth applied now (a
+        state moved off its equilibrium, e.g. onto another branch): converged, iterations,
+        reason."""
+        return self._newton()
+
+    def inertia(self) -> int | None:
+        """The number of negative pivots of the last Newton step's factorisation where it is
+        MUMPS's LDL^T of the tangent (its inertia: the tangent's negative eigenvalues, at
+        the state one step before the converged one), else None (collective)."""
+        if not self._factored_by_preset or self.linear not in linear.SYMMETRIC:
+            return None
+        pc = self.snes.getKSP().getPC()
+        if pc.getType() != "cholesky":
+            return None
+        return int(pc.getFactorMatrix().getMumpsInfog(12))
 
     def _exact_solve(self, reference: float | None, rtol: float | None) -> tuple[bool, int, str]:
         """:meth:`_snes_solve` with the exact factorisation in place of the preset's KSP."""
@@ -379,9 +399,10 @@ class StateProblem:
         self._equilibrium = self.target.values()
         self._at_rest = False
 
-    def solve(self, watch: Callable[[float], None] | None = None) -> SolveReport:
+    def solve(self, watch: Callable[[float], bool] | None = None) -> SolveReport:
         """Bring ``self.u`` into equilibrium with ``self.target``'s growth; ``watch`` is
-        called with the load fraction after each converged load step (stability.py)."""
+        called with the load fraction after each converged load step, and returns True where
+        it moved the state to another equilibrium at that load (stability.py)."""
         cont = self.cfg.solver.continuation
         report = SolveReport()
         tic = time.perf_counter()
@@ -425,8 +446,9 @@ class StateProblem:
                 report.history.append((t, its))
                 log.log(level, "  load step %3d: t = %.4f (step %.3g), %2d Newton iterations",
                         report.steps, t, dt, its)
-                if watch is not None:
-                    watch(t)
+                if watch is not None and watch(t):  # moved onto another branch at t
+                    saved[:] = self.u.x.array
+                    previous = None
                 if its <= 5:
                     dt *= 2.0
                 continue
