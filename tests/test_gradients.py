@@ -46,6 +46,19 @@ CASES = {
     "axisymmetric, complexity + gradient": (DISK_AXI, ["objective.complexity.kind=C1",
                                                        "objective.complexity.weight=0.1",
                                                        "objective.complexity.gradient_weight=0.01"]),
+    # the stability penalty (optimizer.stability) dominating J: the beam held at both ends
+    # (lowest eigenvalues 0.055, 0.435, 1.09: two below 0.5), the disk's section (-0.021,
+    # 0.60, 7.7: two below 1).  Without its u-derivative the rate falls to 1.00.
+    "stability penalty": (BEAM, ["boundary.clamp=[x1_min, x1_max]",
+                                 "optimizer.stability.min_eigenvalue=0.5",
+                                 "optimizer.stability.modes=3", "optimizer.stability.weight=100"]),
+    "stability penalty, free angles": (BEAM, [
+        "boundary.clamp=[x1_min, x1_max]", "growth.frame=free",
+        "growth.angles.initial=[0.4,1.0,0.2]", "optimizer.stability.min_eigenvalue=0.5",
+        "optimizer.stability.modes=3", "optimizer.stability.weight=100"]),
+    "axisymmetric, stability penalty": (DISK_AXI, ["optimizer.stability.min_eigenvalue=1.0",
+                                                   "optimizer.stability.modes=3",
+                                                   "optimizer.stability.weight=100"]),
     # float32 pair sums put a floor of ~1e-10 under J: the check runs in float64 (measured
     # rates with float32: 2.25, 4.19, -1.79, -0.34; commands/gradcheck.checked_config)
     "annulus, free frame, float32 sums asked": (CONFIGS / "disk_cone.yaml", [
@@ -53,7 +66,7 @@ CASES = {
         "mesh.clamp_size=null", "objective.hausdorff.precision=float32"]),
 }
 MPI_CASES = {"eigenvalues", "eigenvalues+free angles", "2D free frame",
-             "X1-X3 section, plane stress", "axisymmetric"}
+             "X1-X3 section, plane stress", "axisymmetric", "stability penalty"}
 
 
 def _params():

@@ -259,6 +259,18 @@ class ObjectiveConfig:
 
 
 @dataclass(frozen=True)
+class StabilityPenaltyConfig:
+    min_eigenvalue: float | None = option(
+        "keep the optimum stable: the tangent's lowest eigenvalues (squared angular "
+        "frequencies for unit density, as summary.json stability reports them) are held above "
+        "this by the penalty weight x sum_i max(0, 1 - omega_i^2 / min_eigenvalue)^2 added to "
+        "J (exact gradient; an eigenproblem per evaluation; null: off)", None, gt=0)
+    weight: float = option("the penalty's weight, in the objective's units", 1.0, gt=0)
+    modes: int = option("the lowest eigenvalues the penalty sees (a symmetric body's modes "
+                        "come in pairs: take both)", 4, ge=1, le=20)
+
+
+@dataclass(frozen=True)
 class OptimizerConfig:
     algorithm: str = option(
         "NLopt algorithm: mma, slsqp (dense quasi-Newton: O(n^2) memory, O(n^3) time per "
@@ -273,6 +285,8 @@ class OptimizerConfig:
                                "(0: the whole bounds); SLSQP always uses the whole bounds",
                                0.3, ge=0)
     restart_every: int = option("evaluations before the box is re-centred", 10, ge=2)
+    stability: StabilityPenaltyConfig = option(
+        "stable optima on request (docs/TRADEOFFS.md, \"Stability\")", StabilityPenaltyConfig())
     from_rest_every: int = option(
         "the physical branch: every this many iterations the next state is solved from rest "
         "(as the body grows) and the warm starts go on from there (0: never)", 0, ge=0)

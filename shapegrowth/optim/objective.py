@@ -33,6 +33,8 @@ class ObjectiveValue:
     hausdorff: float  # exact Hausdorff distance of the clouds, a by-product of rho_H
     shape: float  # the shape term: the debiased divergence S, or rho_H (form: paper)
     alpha: float  # the alpha it was evaluated at
+    stability: float = 0.0  # the stability penalty in total (optimizer.stability)
+    lowest_eigenvalue: float | None = None  # the tangent's, where the penalty computed it
 
 
 class Objective:

@@ -5,8 +5,11 @@ lambda_i listed in ``growth.eigenvalues.design``, then, for ``frame: free``, the
 theta_i), field after field.  One evaluation is the chain rule read forwards,
 the gradient the same chain backwards:
 
-    filter.forward -> C_g -> state solve -> J (rho_H + complexity)
+    filter.forward -> C_g -> state solve -> J (rho_H + complexity [+ stability penalty])
     dJ/dm = filter.backward( dJ/dC_g|_u + adjoint sensitivities )
+
+(the stability penalty, optimizer.stability, joins dJ/du and dJ/dC_g|_u:
+stability_penalty.py).
 
 The gradient returned is the derivative of J with respect to the entries of m
 (the Euclidean, "nodal" gradient): that is what NLopt's MMA and SLSQP use, and
@@ -18,6 +21,7 @@ re-solved from the last equilibrium, a warm start).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass
 
@@ -34,6 +38,7 @@ from ..physics.transfer import interpolate_between_meshes
 from ..timing import Timer
 from .adjoint import AdjointProblem
 from .objective import Objective, ObjectiveValue
+from .stability_penalty import StabilityPenalty
 
 log = logging.getLogger(__name__)
 
@@ -69,6 +74,8 @@ class ReducedFunctional:
                                       cfg.solver.petsc_options, model.state.linear)
         self.objective = Objective(cfg, model.state)
         self.adjoint = AdjointProblem(model.state)
+        self.stability = (StabilityPenalty(model.state, cfg.optimizer.stability)
+                          if cfg.optimizer.stability.min_eigenvalue is not None else None)
         self._indices = [growth.fields.index(f) for f in self.targets]
         self._key: bytes | None = None
         self._last: Evaluation | None = None
@@ -121,6 +128,12 @@ class ReducedFunctional:
         self.evaluations += 1
         with self.timer("hausdorff"):
             value, dJdu = self.objective.evaluate(gradient)
+        if self.stability is not None:
+            with self.timer("forward", "stability"):
+                penalty = self.stability.value()
+            value = dataclasses.replace(
+                value, total=value.total + penalty, stability=penalty,
+                lowest_eigenvalue=self.stability.lowest[0] if self.stability.lowest else None)
         grad = None
         if gradient:
             grad = self._gradient(dJdu)
@@ -210,6 +223,11 @@ class ReducedFunctional:
             self._last = None
 
     def _gradient(self, dJdu) -> np.ndarray:
+        penalty = self.stability if self.stability is not None and \
+            self.stability.active() else None
+        if penalty is not None:
+            with self.timer("adjoint", "stability"):
+                dJdu.axpy(1.0, penalty.derivative_u())
         with self.timer("adjoint", "adjoint_solve"):
             self.adjoint.solve(dJdu)
         with self.timer("adjoint", "sensitivities"):
@@ -217,6 +235,9 @@ class ReducedFunctional:
             explicit = self.objective.explicit_growth_derivatives()
             if explicit is not None:
                 for s, e in zip(sens, explicit):
+                    s.axpy(1.0, e)
+            if penalty is not None:
+                for s, e in zip(sens, penalty.derivatives_growth()):
                     s.axpy(1.0, e)
         parts = []
         with self.timer("filter", "filter_backward"):

@@ -115,6 +115,7 @@ class StabilityProblem:
         self.K = dolfinx.fem.petsc.create_matrix(state.jacobian_form)
         self.mode = dolfinx.fem.Function(V, name="stability_mode")
         self._energy: dolfinx.fem.Form | None = None
+        self._order: list[int] = []  # the last solve's eigenpairs, lowest first
         self.options = SolverOptions(self.role, {
             "st_ksp_type": "preonly", "st_pc_type": "cholesky",
             "st_pc_factor_mat_solver_type": "mumps",
@@ -165,6 +166,7 @@ class StabilityProblem:
             value = self.eps.getEigenpair(i, vr).real
             pairs.append((value, i))
         pairs.sort()
+        self._order = [i for _, i in pairs[:self.count]]
         lowest = tuple(float(value) for value, _ in pairs[:self.count])
         if pairs:
             self.eps.getEigenpair(pairs[0][1], compat.petsc_vec(self.mode))
@@ -173,6 +175,22 @@ class StabilityProblem:
             if scale > 0:
                 self.mode.x.array[:] /= scale
         return Stability(lowest, negative)
+
+
+    def modes_into(self, modes: list[dolfinx.fem.Function]) -> list[float]:
+        """The last :meth:`assess`'s lowest eigenpairs: their eigenvalues, and their modes
+        into ``modes`` (as many as both have), normalised in the mass (phi^T M phi = 1), the
+        normalisation under which d(omega^2) = phi^T dK phi (collective)."""
+        values = []
+        vr, mv = self.K.createVecRight(), self.K.createVecRight()
+        for i, f in zip(self._order, modes):
+            values.append(float(self.eps.getEigenpair(i, vr).real))
+            self.M.mult(vr, mv)
+            norm = vr.dot(mv)
+            vr.scale(1.0 / np.sqrt(norm) if norm > 0 else 1.0)
+            vr.copy(compat.petsc_vec(f))
+            f.x.scatter_forward()
+        return values
 
 
 def _global_max(f: dolfinx.fem.Function, local: float) -> float:
