@@ -17,7 +17,10 @@ are infinite and never among the lowest.
 SLEPc solves it by shift-and-invert about 0 with MUMPS's LDL^T factorisation of K, whose
 inertia (the number of negative pivots, MUMPS's INFOG(12)) is the number of negative
 eigenvalues, however far from 0 they are: ``negative``.  The few eigenvalues nearest 0 are
-``lowest``.
+``lowest``, in increasing order: near a threshold, the ones that decide it.  A state far past
+one can have more negative eigenvalues than ``lowest`` holds, and all of them farther from 0
+than its positive ones (measured: the unfiltered shell's lift, 111 negative, ``lowest``
+0.16, ...): ``negative`` says so.
 
 Along a growth path (:class:`PathWatch`, called at each converged load step of a solve from
 rest) the lowest eigenvalue is followed; where it first crosses zero the path has met a
@@ -34,9 +37,11 @@ Past a bifurcation the path from rest goes on along the equilibrium it followed,
 (``solver.branch: follow``), or leaves it for a stable one (``switch``), as a real body with
 its imperfections would: the state is moved along the critical mode by the amplitude that
 lowers the energy most (doubling from 1e-3 of the body's size while the energy falls, both
-signs tried), Newton's method finds the equilibrium there, and it is kept where it has fewer
-negative eigenvalues than the one left (else the path is followed, and tried again at the next
-step, ``MAX_SWITCHES`` tries in all).  ``branch`` says where the solve ended: ``followed``
+signs tried), shifted Newton steps (K + shift M) du = R carry it away from the unstable
+equilibrium towards a stable one (:meth:`StabilityProblem.descend`), Newton's method
+converges there, and the equilibrium found is kept where it has fewer negative eigenvalues
+than the one left (else the path is followed, and tried again at the next step,
+``MAX_SWITCHES`` tries in all).  ``branch`` says where the solve ended: ``followed``
 (the path from rest) or ``switched`` (at ``switched_at``).
 """
 
@@ -67,6 +72,7 @@ WORKSPACE = (50, 200, 800)
 MAX_SWITCHES = 3  # tries at leaving an unstable path, per solve
 FIRST_AMPLITUDE = 1e-3  # of the body's size: the first perturbation along the critical mode
 LARGEST_AMPLITUDE = 0.25  # of the body's size
+STEP_CAP = 0.02  # of the body's size: the largest nodal move of a shifted step (descend)
 BRANCHES = ("follow", "switch")
 
 
@@ -140,6 +146,58 @@ class StabilityProblem:
         self.state.u.x.scatter_forward()
         local = dolfinx.fem.assemble_scalar(self._energy)
         return float(self.state.domain.mesh.comm.allreduce(local, MPI.SUM))
+
+    def descend(self, shift: float, cap: float, iterations: int = 100,
+                rtol: float = 1e-9) -> bool:
+        """Shifted Newton steps from the state's current displacement, (K + shift M) du = R,
+        u -= du, each step at most ``cap`` at any node.  About an equilibrium whose negative
+        eigenvalues lie above -shift, the iteration moves away from it along their modes (by
+        shift / (shift + omega^2), beyond 1 in size, a step) and towards it along the rest,
+        so it leaves an unstable equilibrium for a stable one nearby, where Newton's method
+        from a perturbed state can return to the unstable one (measured: the hexahedral
+        disk).  The shift is controlled by the inertia of K + shift M (MUMPS's LDL^T): halved
+        after a step where it is positive definite, doubled where not, so that near the
+        stable equilibrium the steps become Newton's; a body of revolution's buckled
+        equilibria form a circle, whose tangent is singular along it, where plain Newton
+        diverges and these steps do not.  Converged (True) where the residual falls to
+        ``rtol`` of the largest it had, or to Newton's absolute tolerance (collective)."""
+        state = self.state
+        A = self.K.duplicate()
+        ksp = PETSc.KSP().create(state.domain.mesh.comm)
+        ksp.setOptionsPrefix(self.options.prefix + "descent_")
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("cholesky")
+        pc.setFactorSolverType("mumps")
+        ksp.setFromOptions()
+        r = dolfinx.fem.petsc.create_vector(state.residual_form)
+        du = self.K.createVecRight()
+        x = compat.petsc_vec(state.u)
+        atol = state.snes.getTolerances()[1]
+        largest_residual = 0.0
+        try:
+            for step in range(iterations):
+                state.assemble_residual(x, r)
+                norm = r.norm()
+                largest_residual = max(largest_residual, norm)
+                log.debug("    shifted step %d: residual %.3e, shift %.3g", step, norm, shift)
+                if not np.isfinite(norm):
+                    return False
+                if norm <= max(rtol * largest_residual, atol):
+                    return True
+                state.tangent_into(A)
+                A.axpy(shift, self.M, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+                ksp.setOperators(A)
+                ksp.solve(r, du)
+                definite = int(pc.getFactorMatrix().getMumpsInfog(12)) == 0
+                largest = du.norm(PETSc.NormType.INFINITY)
+                x.axpy(-min(1.0, cap / largest) if largest > 0 else 0.0, du)
+                state.u.x.scatter_forward()
+                shift = shift / 2.0 if definite else shift * 2.0
+        finally:
+            ksp.destroy()
+            A.destroy()
+        return False
 
     def assess(self) -> Stability:
         """The stability of the state's equilibrium now; ``self.mode`` the lowest mode."""
@@ -294,6 +352,8 @@ def switch_branch(problem: StabilityProblem, before: Stability) -> Stability | N
     mode by the amplitude that lowers the energy most, and find the equilibrium there; keep it
     where it has fewer negative eigenvalues (returned), else put the state back (None)."""
     state = problem.state
+    if not before.lowest or before.lowest[0] >= 0.0:  # the negative ones lie beyond those found
+        return None
     start = state.u.x.array.copy()
     mode = problem.mode.x.array.copy()
     e0 = problem.energy()
@@ -315,15 +375,20 @@ def switch_branch(problem: StabilityProblem, before: Stability) -> Stability | N
     if best[1] == 0.0:  # the energy does not fall along the mode (to round-off)
         best = (e0, FIRST_AMPLITUDE * size)
     state.u.x.array[:] = start + best[1] * mode
-    ok, _, reason = state.equilibrate()
+    # Newton's method from there can return to the unstable equilibrium (measured: the
+    # hexahedral disk, its pair of modes): shifted steps first, which leave it
+    if problem.descend(2.0 * -min(before.lowest), STEP_CAP * size):
+        ok, reason = True, ""
+    else:
+        ok, _, reason = state.equilibrate()
+    log.debug("  branch switch: amplitude %.3g along the mode; %s", best[1],
+              "an equilibrium" if ok else reason)
     after = None
     if ok:
         try:
             after = problem.assess()
         except StabilityError as err:
             log.warning("stability after a branch switch not assessed: %s", err)
-    else:
-        log.debug("  branch switch: no equilibrium from the perturbed state (%s)", reason)
     if after is not None and after.negative < before.negative:
         return after
     state.u.x.array[:] = start
