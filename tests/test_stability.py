@@ -152,3 +152,12 @@ def test_a_run_reports_the_stability_of_its_optimum_and_of_its_verified_state(sh
     verified = summary.verified.stability
     assert verified is not None and summary.stability.stable and verified.stable
     assert verified.lowest[0] == pytest.approx(summary.stability.lowest[0], rel=0.1)
+    # solve takes the run's best growth (growth.start: run) and grows it from rest as the
+    # run did on its own mesh
+    solved = shared_tmp / "solved"
+    assert run_cli("solve", CONFIGS / "tiny" / "beam_wave.yaml", "--out", solved, "-q",
+                   "--set", "growth.start=run", "--set", f"growth.from_run={out}") == 0
+    again = read_json(solved / "summary.json")
+    assert summary.optimization is not None
+    assert again["hausdorff_final"] == pytest.approx(summary.optimization.hausdorff_from_rest,
+                                                     rel=1e-6)
