@@ -6,13 +6,17 @@ between them is a branch on ``AT_LEAST_0_9`` in this module, each with a comment
 the release that changed the call; the rest of the package calls these helpers for
 meshes from gmsh, function spaces, PETSc vectors of functions, boundary conditions,
 expression evaluation, point evaluation and XDMF output.  The releases between (0.6-0.8)
-are not tested.
+are not tested.  dolfinx 0.11 (the pip wheel, ``make test-dolfinx011``) is being brought
+up: its differences are branches on ``AT_LEAST_0_10``; the fast tier does not pass there
+yet.
 """
 
 from __future__ import annotations
 
 import functools
+import importlib
 from pathlib import Path
+from typing import Any
 
 import basix
 import dolfinx
@@ -21,12 +25,14 @@ import dolfinx.fem
 import dolfinx.fem.petsc  # noqa: F401  (registers dolfinx.fem.petsc)
 import dolfinx.geometry
 import dolfinx.io
+import dolfinx.la
 import numpy as np
 import ufl
 from mpi4py import MPI
 
 DOLFINX_VERSION = dolfinx.__version__
 AT_LEAST_0_9 = tuple(int(p) for p in DOLFINX_VERSION.split(".")[:2]) >= (0, 9)
+AT_LEAST_0_10 = tuple(int(p) for p in DOLFINX_VERSION.split(".")[:2]) >= (0, 10)
 
 
 def read_gmsh(path: Path, comm: MPI.Comm, gdim: int):
@@ -36,17 +42,26 @@ def read_gmsh(path: Path, comm: MPI.Comm, gdim: int):
     so the file is merged here and handed to ``model_to_mesh``.
     """
     import gmsh
-    from dolfinx.io import gmshio
 
+    # 0.10 renamed dolfinx.io.gmshio to dolfinx.io.gmsh
+    gmshio: Any = importlib.import_module("dolfinx.io.gmsh" if AT_LEAST_0_10
+                                          else "dolfinx.io.gmshio")
     if comm.rank == 0:
         gmsh.initialize()
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.merge(str(path))
-    partitioner = dolfinx.cpp.mesh.create_cell_partitioner(_ordered_partition)
+    if AT_LEAST_0_10:  # 0.10 asks for the ghost mode and the facet's most cells
+        partitioner = dolfinx.cpp.mesh.create_cell_partitioner(
+            _ordered_partition, dolfinx.cpp.mesh.GhostMode.none, 2)
+    else:
+        partitioner = dolfinx.cpp.mesh.create_cell_partitioner(_ordered_partition)
     if AT_LEAST_0_9:  # 0.6 added model_to_mesh(..., partitioner=)
         try:
-            return gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=gdim,
+            data = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=gdim,
                                         partitioner=partitioner)
+            if AT_LEAST_0_10:  # 0.10: a MeshData, not (mesh, cell_tags, facet_tags)
+                return data.mesh, data.cell_tags, data.facet_tags
+            return data
         finally:
             if comm.rank == 0:
                 gmsh.finalize()
@@ -209,9 +224,35 @@ def has_domain(expr: ufl.core.expr.Expr) -> bool:
     return extract_unique_domain(expr) is not None
 
 
+def create_vector(form):
+    """A ghosted PETSc vector for the test space of the linear ``form`` (0.10 takes the
+    space, earlier releases the form)."""
+    if AT_LEAST_0_10:
+        return dolfinx.fem.petsc.create_vector(form.function_spaces[0])
+    return dolfinx.fem.petsc.create_vector(form)
+
+
+def assemble_matrix(form, bcs, diagonal: float = 1.0):
+    """The assembled PETSc matrix of the bilinear ``form``, the rows and columns of the
+    prescribed DOFs zero but for ``diagonal`` on the diagonal (0.10 renamed the keyword
+    ``diagonal`` to ``diag``)."""
+    if AT_LEAST_0_10:
+        return dolfinx.fem.petsc.assemble_matrix(form, bcs=bcs, diag=diagonal)
+    return dolfinx.fem.petsc.assemble_matrix(form, bcs=bcs, diagonal=diagonal)
+
+
+def index_map_vector(index_map, bs: int):
+    """A ghosted PETSc vector of the DOF layout ``index_map`` with block size ``bs`` (0.10
+    moved dolfinx.la.create_petsc_vector to dolfinx.la.petsc.create_vector)."""
+    if AT_LEAST_0_10:
+        return importlib.import_module("dolfinx.la.petsc").create_vector(index_map, bs)
+    return dolfinx.la.create_petsc_vector(index_map, bs)
+
+
 def interpolation_points(space) -> np.ndarray:
     """Reference points at which ``space`` interpolates (for fem.Expression)."""
-    return space.element.interpolation_points()
+    points = space.element.interpolation_points
+    return points if AT_LEAST_0_10 else points()  # 0.10: a property, no longer a method
 
 
 def interpolate_expression(target: dolfinx.fem.Function, expr: ufl.core.expr.Expr) -> None:

@@ -58,7 +58,7 @@ def _reference_newton_seconds(model: ForwardModel, iterations: int = 3) -> float
     restored to) the current equilibrium."""
     st = model.state
     A = dolfinx.fem.petsc.create_matrix(st.jacobian_form)
-    b = dolfinx.fem.petsc.create_vector(st.residual_form)
+    b = compat.create_vector(st.residual_form)
     du = A.createVecRight()
     ksp = PETSc.KSP().create(model.comm)
     ksp.setType("preonly")

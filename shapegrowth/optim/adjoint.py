@@ -67,7 +67,7 @@ class AdjointProblem:
             self.ksp.setFromOptions()
         self.reuse = state.cfg.solver.adjoint_reuse
         self._action = dolfinx.fem.form(ufl.action(state.jacobian_ufl, self.p))
-        self._residual = dolfinx.fem.petsc.create_vector(self._action)  # ghosted
+        self._residual = compat.create_vector(self._action)  # ghosted
         self._correction = self.A.createVecRight()
         self.refinements = 0  # of the last solve; -1: solved with fresh factors
         mu = ufl.TestFunction(state.applied.space)

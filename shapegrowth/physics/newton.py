@@ -3,10 +3,10 @@ solver needs, and PETSc's convergence reasons in words."""
 
 from __future__ import annotations
 
-import dolfinx.la
 import numpy as np
 from petsc4py import PETSc
 
+from .. import compat
 from ..config import Config
 from .linear import preset_options
 
@@ -50,7 +50,7 @@ def rigid_body_modes(V) -> PETSc.NullSpace:
         modes[2, :, 0], modes[2, :, 1] = -x[:, 1], x[:, 0]
     vecs: list[PETSc.Vec] = []
     for mode in modes:  # Gram-Schmidt with PETSc's (global) products: dolfinx.la's
-        vec = dolfinx.la.create_petsc_vector(index_map, bs)  # orthonormalize takes
+        vec = compat.index_map_vector(index_map, bs)  # orthonormalize takes
         vec.array[:] = mode.ravel()  # PETSc vectors in 0.5.2, its own in 0.9
         for other in vecs:
             vec.axpy(-vec.dot(other), other)

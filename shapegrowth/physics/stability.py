@@ -116,7 +116,7 @@ class StabilityProblem:
         dx = ufl.Measure("dx", domain=V.mesh, metadata={"quadrature_degree":
                                                          2 * state.cfg.model.degree})
         mass = dolfinx.fem.form(ufl.inner(u, v) * state.weight * dx)
-        self.M = dolfinx.fem.petsc.assemble_matrix(mass, bcs=state.bcs, diagonal=0.0)
+        self.M = compat.assemble_matrix(mass, state.bcs, diagonal=0.0)
         self.M.assemble()
         self.K = dolfinx.fem.petsc.create_matrix(state.jacobian_form)
         self.mode = dolfinx.fem.Function(V, name="stability_mode")
@@ -170,7 +170,7 @@ class StabilityProblem:
         pc.setType("cholesky")
         pc.setFactorSolverType("mumps")
         ksp.setFromOptions()
-        r = dolfinx.fem.petsc.create_vector(state.residual_form)
+        r = compat.create_vector(state.residual_form)
         du = self.K.createVecRight()
         x = compat.petsc_vec(state.u)
         atol = state.snes.getTolerances()[1]

@@ -102,8 +102,8 @@ class StateProblem:
                                     cfg.section.axisymmetric)
 
         self.A = dolfinx.fem.petsc.create_matrix(self.jacobian_form)
-        self.b = dolfinx.fem.petsc.create_vector(self.residual_form)
-        self._chord_b = dolfinx.fem.petsc.create_vector(self.residual_form)
+        self.b = compat.create_vector(self.residual_form)
+        self._chord_b = compat.create_vector(self.residual_form)
         self._chord_du = self.A.createVecRight()
         self.snes = self._create_snes()
         self.jacobian_assemblies = 0  # the SNES's linear solver holds factors once this is > 0
