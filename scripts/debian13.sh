@@ -10,6 +10,8 @@
 # root, no debootstrap and no apt to install it) skips it with one line, exit status 0.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# shellcheck source=scripts/root_common.sh
+. scripts/root_common.sh
 
 ROOT=${SHAPEGROWTH_DEBIAN13_ROOT:-$HOME/.cache/shapegrowth/debian13}
 # The archive comes from this machine's own apt sources (a mirror or proxy the machine is set
@@ -82,40 +84,11 @@ if [ ! -f "$ROOT/.shapegrowth-ready" ]; then
 fi
 # pip installs the test tools into .venv: the host's name server, proxy settings and
 # trusted certificates (a proxy that re-signs TLS) go with it
-cp /etc/resolv.conf "$ROOT/etc/resolv.conf"
-PASS=()
-if [ -f /etc/ssl/certs/ca-certificates.crt ]; then
-  cp /etc/ssl/certs/ca-certificates.crt "$ROOT/etc/ssl/certs/host-ca-certificates.crt"
-  PASS+=(PIP_CERT=/etc/ssl/certs/host-ca-certificates.crt)
-fi
-for var in http_proxy https_proxy no_proxy HTTP_PROXY HTTPS_PROXY NO_PROXY PIP_INDEX_URL \
-           PIP_EXTRA_INDEX_URL PIP_DEFAULT_TIMEOUT; do
-  [ -n "${!var:-}" ] && PASS+=("$var=${!var}")
-done
-
+root_pass_settings
 # The copy of the checkout; its .venv and .cache stay between runs
 SRC=/work/shapegrowth
-DEST="$ROOT$SRC"
-mkdir -p "$DEST"
-find "$DEST" -mindepth 1 -maxdepth 1 ! -name .venv ! -name .cache -exec rm -rf {} +
-git ls-files -co --exclude-standard -z | tar --null -cf - -T - | tar -xf - -C "$DEST"
-# The mesh files made here go along: Debian 13's gmsh 4.13 splits some cells of the same
-# geometry differently from Debian 12's 4.11 (20 of the tiny beam's 240 tetrahedra), so
-# only on the same meshes do both platforms give the same numbers (measured: the tiny arc
-# run's first objective to 4e-14, its 30th to 6e-7, Newton's tolerance)
-find meshes -maxdepth 1 \( -name '*.msh' -o -name '*.json' \) -exec cp {} "$DEST/meshes/" \;
-
-# proc and sys for MPI (hwloc reads the CPU topology), a tmpfs for its shared memory;
-# unmounted however the run ends
-MOUNTED=()
-cleanup() {
-  for ((i = ${#MOUNTED[@]} - 1; i >= 0; i--)); do umount -l "${MOUNTED[i]}" || true; done
-}
-trap cleanup EXIT
-mount -t proc proc "$ROOT/proc" && MOUNTED+=("$ROOT/proc")
-mount --bind /sys "$ROOT/sys" && MOUNTED+=("$ROOT/sys")
-mkdir -p "$ROOT/dev/shm"
-mount -t tmpfs tmpfs "$ROOT/dev/shm" && MOUNTED+=("$ROOT/dev/shm")
+root_copy_checkout "$SRC"
+root_mount
 
 start=$(date +%s)
 chroot "$ROOT" /usr/bin/env -i HOME=/root PATH=/usr/sbin:/usr/bin:/sbin:/bin LANG=C.UTF-8 \

@@ -16,6 +16,8 @@
 # the test files (default: all of tests/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# shellcheck source=scripts/root_common.sh
+. scripts/root_common.sh
 
 ROOT=${SHAPEGROWTH_DEBIAN13_ROOT:-$HOME/.cache/shapegrowth/debian13}
 VENV=/opt/dolfinx011
@@ -29,16 +31,7 @@ if [ ! -f "$ROOT/.shapegrowth-ready" ]; then  # the Debian 13 root, built by its
   [ -f "$ROOT/.shapegrowth-ready" ] || skip "no Debian 13 root (make test-debian13 says why)"
 fi
 
-PASS=()
-if [ -f /etc/ssl/certs/ca-certificates.crt ]; then
-  cp /etc/ssl/certs/ca-certificates.crt "$ROOT/etc/ssl/certs/host-ca-certificates.crt"
-  PASS+=(PIP_CERT=/etc/ssl/certs/host-ca-certificates.crt)
-fi
-for var in http_proxy https_proxy no_proxy HTTP_PROXY HTTPS_PROXY NO_PROXY PIP_INDEX_URL \
-           PIP_EXTRA_INDEX_URL PIP_DEFAULT_TIMEOUT; do
-  [ -n "${!var:-}" ] && PASS+=("$var=${!var}")
-done
-cp /etc/resolv.conf "$ROOT/etc/resolv.conf"
+root_pass_settings
 in_root() {
   chroot "$ROOT" /usr/bin/env -i HOME=/root LANG=C.UTF-8 PATH=$VENV/bin:/usr/bin:/bin \
     LD_LIBRARY_PATH=$VENV/lib "${PASS[@]}" bash -c "$1"
@@ -53,21 +46,8 @@ if [ ! -f "$ROOT$VENV/.shapegrowth-ready" ]; then
 fi
 
 SRC=/work/shapegrowth011
-DEST="$ROOT$SRC"
-mkdir -p "$DEST"
-find "$DEST" -mindepth 1 -maxdepth 1 ! -name .cache -exec rm -rf {} +
-git ls-files -co --exclude-standard -z | tar --null -cf - -T - | tar -xf - -C "$DEST"
-find meshes -maxdepth 1 \( -name '*.msh' -o -name '*.json' \) -exec cp {} "$DEST/meshes/" \;
-
-MOUNTED=()
-cleanup() {
-  for ((i = ${#MOUNTED[@]} - 1; i >= 0; i--)); do umount -l "${MOUNTED[i]}" || true; done
-}
-trap cleanup EXIT
-mount -t proc proc "$ROOT/proc" && MOUNTED+=("$ROOT/proc")
-mount --bind /sys "$ROOT/sys" && MOUNTED+=("$ROOT/sys")
-mkdir -p "$ROOT/dev/shm"
-mount -t tmpfs tmpfs "$ROOT/dev/shm" && MOUNTED+=("$ROOT/dev/shm")
+root_copy_checkout "$SRC"
+root_mount
 
 TESTS=${SHAPEGROWTH_DOLFINX011_TESTS:-tests}
 start=$(date +%s)
