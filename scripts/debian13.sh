@@ -10,8 +10,6 @@
 # root, no debootstrap and no apt to install it) skips it with one line, exit status 0.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-# shellcheck source=scripts/root_common.sh
-. scripts/root_common.sh
 
 ROOT=${SHAPEGROWTH_DEBIAN13_ROOT:-$HOME/.cache/shapegrowth/debian13}
 # The archive comes from this machine's own apt sources (a mirror or proxy the machine is set
@@ -84,6 +82,8 @@ if [ ! -f "$ROOT/.shapegrowth-ready" ]; then
 fi
 # pip installs the test tools into .venv: the host's name server, proxy settings and
 # trusted certificates (a proxy that re-signs TLS) go with it
+# shellcheck source=scripts/root_common.sh
+. scripts/root_common.sh  # (after the checks above, which need nothing beside this script)
 root_pass_settings
 # The copy of the checkout; its .venv and .cache stay between runs
 SRC=/work/shapegrowth

@@ -16,8 +16,6 @@
 # the test files (default: all of tests/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-# shellcheck source=scripts/root_common.sh
-. scripts/root_common.sh
 
 ROOT=${SHAPEGROWTH_DEBIAN13_ROOT:-$HOME/.cache/shapegrowth/debian13}
 VENV=/opt/dolfinx011
@@ -31,6 +29,8 @@ if [ ! -f "$ROOT/.shapegrowth-ready" ]; then  # the Debian 13 root, built by its
   [ -f "$ROOT/.shapegrowth-ready" ] || skip "no Debian 13 root (make test-debian13 says why)"
 fi
 
+# shellcheck source=scripts/root_common.sh
+. scripts/root_common.sh  # (after the checks above, which need nothing beside this script)
 root_pass_settings
 in_root() {
   chroot "$ROOT" /usr/bin/env -i HOME=/root LANG=C.UTF-8 PATH=$VENV/bin:/usr/bin:/bin \
