@@ -12,7 +12,6 @@ fields.xdmf of the 3D body to ``--out`` (default RUN_DIR/lift).
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 from pathlib import Path
 
@@ -68,8 +67,7 @@ def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
     verified = summary.verified
     io.write_json(out / "lift.json", {
         "run": str(run_dir),
-        "lifted": {**dataclasses.asdict(lifted), "stability": (
-            lifted.stability.to_json() if lifted.stability else None)},
+        "lifted": lifted.to_json(),
         "reduced_verified": verified.relative if verified else None,
         "reduced_self": summary.relative_error})
     if lifted.relative is None:

@@ -16,7 +16,8 @@ from ..io import files as io
 from ..io.summary import Dofs, LinearSolverUse, Probe, RunSummary, SolveMeasures
 from ..physics import linear
 from ..physics.model import ForwardModel
-from ..physics.stability import describe, solve_watched
+from ..physics.paths import solve_watched
+from ..physics.stability import describe
 from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer, peak_memory_mb

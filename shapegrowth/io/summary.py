@@ -116,9 +116,7 @@ class RunSummary:
                     if value.lifted is None:  # only a lifted reduced model has one
                         del out["verified"]["lifted"]
                     else:
-                        out["verified"]["lifted"]["stability"] = (
-                            value.lifted.stability.to_json() if value.lifted.stability
-                            else None)
+                        out["verified"]["lifted"] = value.lifted.to_json()
                     out["verified"]["stability"] = (value.stability.to_json()
                                                     if value.stability else None)
             elif f.name == "status":

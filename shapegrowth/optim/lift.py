@@ -32,7 +32,8 @@ from .. import compat
 from ..config import GEOMETRY_PARAMS, Config, ConfigError
 from ..physics.growth import Growth
 from ..physics.model import ForwardModel
-from ..physics.stability import Stability, solve_watched
+from ..physics.paths import solve_watched
+from ..physics.stability import Stability
 from ..physics.transfer import interpolate_between_meshes
 from .objective import Objective
 
@@ -53,6 +54,11 @@ class Lifted:
     # size (None where either solve failed, or the section's state is not known)
     departure: float | None = None
     stability: Stability | None = None  # of the 3D body's state, its path from rest watched
+
+    def to_json(self) -> dict[str, object]:
+        """summary.json's ``verified.lifted`` and lift.json's ``lifted``."""
+        return {**dataclasses.asdict(self),
+                "stability": self.stability.to_json() if self.stability else None}
 
 
 def check_liftable(reduced: Config, solid: Config) -> None:

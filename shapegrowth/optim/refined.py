@@ -26,7 +26,8 @@ from dataclasses import dataclass
 from .. import compat
 from ..config import Config
 from ..physics.model import ForwardModel
-from ..physics.stability import Stability, solve_watched
+from ..physics.paths import solve_watched
+from ..physics.stability import Stability
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
 from .lift import Lifted

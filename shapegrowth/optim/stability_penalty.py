@@ -41,7 +41,7 @@ class StabilityPenalty:
 
     def __init__(self, state: StateProblem, settings: StabilityPenaltyConfig):
         assert settings.min_eigenvalue is not None
-        self.state, self.eps, self.weight = state, settings.min_eigenvalue, settings.weight
+        self.eps, self.weight = settings.min_eigenvalue, settings.weight
         self.problem = StabilityProblem(state, settings.modes)
         self.modes = [dolfinx.fem.Function(state.V, name=f"mode_{i}")
                       for i in range(settings.modes)]

@@ -62,7 +62,6 @@ EXACT: dict[str, object] = {"ksp_type": "preonly", "pc_type": "lu",
 # DOFs); from there on the LDL^T factorisation, the same states to round-off with half the
 # factor and 0.6x its time (docs/PERFORMANCE.md, "Linear solvers").
 AUTO_LDLT_DOFS = 20_000
-SYMMETRIC = ("mumps_ldlt", "mumps_blr")  # presets factoring LDL^T: their inertia is free
 
 
 def preset_options(name: str, role: str) -> dict[str, object]:

@@ -308,10 +308,9 @@ class StateProblem:
         """The number of negative pivots of the last Newton step's factorisation where it is
         MUMPS's LDL^T of the tangent (its inertia: the tangent's negative eigenvalues, at
         the state one step before the converged one), else None (collective)."""
-        if not self._factored_by_preset or self.linear not in linear.SYMMETRIC:
-            return None
         pc = self.snes.getKSP().getPC()
-        if pc.getType() != "cholesky":
+        if not self._factored_by_preset or pc.getType() != "cholesky" or \
+                pc.getFactorSolverType() != "mumps":
             return None
         return int(pc.getFactorMatrix().getMumpsInfog(12))
 
@@ -402,7 +401,7 @@ class StateProblem:
     def solve(self, watch: Callable[[float], bool] | None = None) -> SolveReport:
         """Bring ``self.u`` into equilibrium with ``self.target``'s growth; ``watch`` is
         called with the load fraction after each converged load step, and returns True where
-        it moved the state to another equilibrium at that load (stability.py)."""
+        it moved the state to another equilibrium at that load (paths.py)."""
         cont = self.cfg.solver.continuation
         report = SolveReport()
         tic = time.perf_counter()

@@ -1,0 +1,241 @@
+"""Growth paths from rest: where they lose stability, and the stable branch past it.
+
+Along a growth path (:class:`PathWatch`, called at each converged load step of a solve from
+rest) the lowest eigenvalue is followed; where it first crosses zero the path has met a
+bifurcation, and ``lost_at`` is the load fraction of the crossing, linear between the two
+steps around it.  Where the state's own factorisation is an LDL^T (``solver.linear``
+mumps_ldlt, mumps_blr, and auto on large 3D models) its inertia comes free with every Newton
+step: the path is then watched by it, and the eigenproblem is solved only at the first step,
+where the inertia turns negative and at the end; ``lost_at`` is then the first load step found
+unstable (the crossing lies within the step before it).  A path that ends short of its growth
+with its lowest eigenvalue fallen to near zero (below ``LIMIT_RATIO`` of its first value) met a
+limit point, there.
+
+Past a bifurcation the path from rest goes on along the equilibrium it followed, now unstable
+(``solver.branch: follow``), or leaves it for a stable one (``switch``), as a real body with
+its imperfections would: the state is moved along the critical mode by the amplitude that
+lowers the energy most (doubling from 1e-3 of the body's size while the energy falls, both
+signs tried), shifted Newton steps (K + shift M) du = R carry it away from the unstable
+equilibrium towards a stable one (:func:`descend`), Newton's method
+converges there, and the equilibrium found is kept where it has fewer negative eigenvalues
+than the one left (else the path is followed, and tried again at the next step,
+``MAX_SWITCHES`` tries in all).  ``branch`` says where the solve ended: ``followed``
+(the path from rest) or ``switched`` (at ``switched_at``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+
+import numpy as np
+from petsc4py import PETSc
+
+from .. import compat
+from .boundary import body_box
+from .stability import Stability, StabilityError, StabilityProblem, assess_or_none
+from .state import SolveReport, StateProblem
+
+log = logging.getLogger(__name__)
+
+LIMIT_RATIO = 1e-2  # a failed path whose lowest eigenvalue fell below this share of its first
+MAX_SWITCHES = 3  # tries at leaving an unstable path, per solve
+FIRST_AMPLITUDE = 1e-3  # of the body's size: the first perturbation along the critical mode
+LARGEST_AMPLITUDE = 0.25  # of the body's size
+STEP_CAP = 0.02  # of the body's size: the largest nodal move of a shifted step (descend)
+
+
+class PathWatch:
+    """Follows the stability along a solve from rest (``StateProblem.solve``'s ``watch``,
+    called with the load fraction of each converged step; it returns True where it moved the
+    state onto another branch).  ``switch``: leave an unstable path (module doc)."""
+
+    def __init__(self, problem: StabilityProblem, switch: bool = False):
+        self.problem, self.switch = problem, switch
+        self.path: list[tuple[float, float, int]] = []  # (t, lowest or NaN, negative)
+        self._last: tuple[float, Stability] | None = None  # the last full assessment
+        self.switched_at: float | None = None
+        self._tries = 0
+
+    def __call__(self, t: float) -> bool:
+        negative = self.problem.state.inertia() if self.path else None
+        if negative == 0:  # stable, known from the Newton step's own LDL^T
+            self.path.append((t, float("nan"), 0))
+            log.debug("  stability at t = %.4f: no negative pivot", t)
+            return False
+        try:
+            s = self.problem.assess()
+        except StabilityError as err:
+            log.warning("stability at t = %.4f not assessed: %s", t, err)
+            return False
+        self._last = (t, s)
+        lowest = s.lowest[0] if s.lowest else float("nan")
+        self.path.append((t, lowest, s.negative))
+        log.debug("  stability at t = %.4f: lowest eigenvalue %.4g, %d negative", t, lowest,
+                  s.negative)
+        if s.stable or not self.switch or self._tries >= MAX_SWITCHES:
+            return False
+        self._tries += 1
+        after = switch_branch(self.problem, s)
+        if after is None:
+            log.info("  stability lost at t = %.4f; no stable branch found along the critical "
+                     "mode: the path is followed", t)
+            return False
+        log.info("  stability lost at t = %.4f (lowest eigenvalue %.4g, %d negative): switched "
+                 "along the critical mode to a branch with %d negative", t, lowest, s.negative,
+                 after.negative)
+        self._last = (t, after)
+        self.switched_at = t
+        return True
+
+    def at(self, reached: float, converged: bool) -> Stability | None:
+        """The stability where the solve ended (load fraction ``reached``), with where the
+        path lost it and the branch it ended on: the last step's assessment where that step
+        ended the solve (the problem's mode is then that state's), else assessed now."""
+        now = (self._last[1] if self._last is not None and self._last[0] == reached
+               else assess_or_none(self.problem))
+        if now is None:
+            return None
+        lost_at, kind = self.lost(reached, converged, now)
+        return dataclasses.replace(
+            now, lost_at=lost_at, kind=kind,
+            branch="followed" if self.switched_at is None else "switched",
+            switched_at=self.switched_at)
+
+    def lost(self, reached: float, converged: bool,
+             end: Stability | None = None) -> tuple[float | None, str | None]:
+        """(lost_at, kind) of the path watched, ending at ``reached`` (converged or not) in
+        the state ``end`` (default: the last step's)."""
+        previous: tuple[float, float, int] | None = None
+        for t, lowest, negative in self.path:
+            if negative > 0:
+                if previous is None:
+                    return t, "bifurcation"
+                t0, l0, _ = previous
+                if not (np.isfinite(l0) and np.isfinite(lowest)) or l0 == lowest:
+                    return t, "bifurcation"  # known from the inertia: within (t0, t]
+                crossing = t0 + (t - t0) * l0 / (l0 - lowest)
+                return float(min(max(crossing, t0), t)), "bifurcation"
+            previous = (t, lowest, negative)
+        first = self.path[0][1] if self.path else float("nan")
+        last = end.lowest[0] if end is not None and end.lowest else (
+            self.path[-1][1] if self.path else float("nan"))
+        if not converged and len(self.path) >= 2 and first > 0 and \
+                0 <= last < LIMIT_RATIO * first:
+            return reached, "limit_point"
+        return None, None
+
+
+def switch_branch(problem: StabilityProblem, before: Stability) -> Stability | None:
+    """Move the state's equilibrium, unstable as ``before`` says, along the problem's lowest
+    mode by the amplitude that lowers the energy most, and find the equilibrium there; keep it
+    where it has fewer negative eigenvalues (returned), else put the state back (None)."""
+    state = problem.state
+    if not before.lowest or before.lowest[0] >= 0.0:  # the negative ones lie beyond those found
+        return None
+    start = state.u.x.array.copy()
+    mode = problem.mode.x.array.copy()
+    e0 = problem.energy()
+    lo, hi = body_box(state.domain.mesh)
+    size = float(np.linalg.norm(hi - lo))
+    best = (e0, 0.0)
+    for sign in (1.0, -1.0):
+        amplitude = FIRST_AMPLITUDE * size
+        previous = np.inf
+        while amplitude <= LARGEST_AMPLITUDE * size:
+            state.u.x.array[:] = start + sign * amplitude * mode
+            e = problem.energy()
+            if not np.isfinite(e) or e >= previous:
+                break
+            previous = e
+            if e < best[0]:
+                best = (e, sign * amplitude)
+            amplitude *= 2.0
+    if best[1] == 0.0:  # the energy does not fall along the mode (to round-off)
+        best = (e0, FIRST_AMPLITUDE * size)
+    state.u.x.array[:] = start + best[1] * mode
+    # Newton's method from there can return to the unstable equilibrium (measured: the
+    # hexahedral disk, its pair of modes): shifted steps first, which leave it
+    if descend(problem, 2.0 * -min(before.lowest), STEP_CAP * size):
+        ok, reason = True, ""
+    else:
+        ok, _, reason = state.equilibrate()
+    log.debug("  branch switch: amplitude %.3g along the mode; %s", best[1],
+              "an equilibrium" if ok else reason)
+    after = None
+    if ok:
+        try:
+            after = problem.assess()
+        except StabilityError as err:
+            log.warning("stability after a branch switch not assessed: %s", err)
+    if after is not None and after.negative < before.negative:
+        return after
+    state.u.x.array[:] = start
+    state.u.x.scatter_forward()
+    if after is not None:  # the problem's mode back to the state kept
+        problem.assess()
+    return None
+
+
+def solve_watched(state: StateProblem, branch: str = "follow"
+                  ) -> tuple[SolveReport, Stability | None, StabilityProblem]:
+    """``state.solve()`` with its path watched (and, ``branch`` "switch", left where it
+    loses stability): the report, the stability where it ended (None where not assessed)
+    and the problem, whose ``mode`` is that state's lowest mode (collective)."""
+    problem = StabilityProblem(state)
+    watch = PathWatch(problem, switch=branch == "switch")
+    report = state.solve(watch=watch)
+    return report, watch.at(report.reached, report.converged), problem
+
+
+def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int = 100,
+            rtol: float = 1e-9) -> bool:
+    """Shifted Newton steps from the state's current displacement, (K + shift M) du = R,
+    u -= du, each step at most ``cap`` at any node.  About an equilibrium whose negative
+    eigenvalues lie above -shift, the iteration moves away from it along their modes (by
+    shift / (shift + omega^2), beyond 1 in size, a step) and towards it along the rest,
+    so it leaves an unstable equilibrium for a stable one nearby, where Newton's method
+    from a perturbed state can return to the unstable one (measured: the hexahedral
+    disk).  The shift is controlled by the inertia of K + shift M (MUMPS's LDL^T): halved
+    after a step where it is positive definite, doubled where not, so that near the
+    stable equilibrium the steps become Newton's; a body of revolution's buckled
+    equilibria form a circle, whose tangent is singular along it, where plain Newton
+    diverges and these steps do not.  Converged (True) where the residual falls to
+    ``rtol`` of the largest it had, or to Newton's absolute tolerance (collective)."""
+    state = problem.state
+    A = problem.K.duplicate()
+    ksp = PETSc.KSP().create(state.domain.mesh.comm)
+    ksp.setOptionsPrefix(problem.options.prefix + "descent_")
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("cholesky")
+    pc.setFactorSolverType("mumps")
+    ksp.setFromOptions()
+    r = compat.create_vector(state.residual_form)
+    du = problem.K.createVecRight()
+    x = compat.petsc_vec(state.u)
+    atol = state.snes.getTolerances()[1]
+    largest_residual = 0.0
+    try:
+        for step in range(iterations):
+            state.assemble_residual(x, r)
+            norm = r.norm()
+            largest_residual = max(largest_residual, norm)
+            log.debug("    shifted step %d: residual %.3e, shift %.3g", step, norm, shift)
+            if not np.isfinite(norm):
+                return False
+            if norm <= max(rtol * largest_residual, atol):
+                return True
+            state.tangent_into(A)
+            A.axpy(shift, problem.M, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            ksp.setOperators(A)
+            ksp.solve(r, du)
+            definite = int(pc.getFactorMatrix().getMumpsInfog(12)) == 0
+            largest = du.norm(PETSc.NormType.INFINITY)
+            x.axpy(-min(1.0, cap / largest) if largest > 0 else 0.0, du)
+            state.u.x.scatter_forward()
+            shift = shift / 2.0 if definite else shift * 2.0
+    finally:
+        ksp.destroy()
+        A.destroy()
+    return False
