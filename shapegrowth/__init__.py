@@ -122,6 +122,10 @@ def __getattr__(name: str) -> Any:
     if name not in _API:
         raise AttributeError(f"module 'shapegrowth' has no attribute {name!r}")
     module, attribute = _API[name]
+    # MPI before FEniCSx: the pip wheel of dolfinx finds its MPICH library through mpi4py
+    # (imported after dolfinx it is not found without LD_LIBRARY_PATH); the command line
+    # imports mpi4py first too
+    importlib.import_module("mpi4py.MPI")
     value = getattr(importlib.import_module(module), attribute)
     globals()[name] = value
     return value

@@ -1,14 +1,15 @@
 """The dolfinx-version-specific calls, gathered so a newer dolfinx is a local change.
 
-Two releases are served and tested: dolfinx 0.5.2 (Debian 12, ufl 2022.2, PETSc 3.18)
-and dolfinx 0.9.0 (Debian 13, ufl 2024.2, basix 0.9, PETSc 3.22).  Every difference
-between them is a branch on ``AT_LEAST_0_9`` in this module, each with a comment naming
-the release that changed the call; the rest of the package calls these helpers for
-meshes from gmsh, function spaces, PETSc vectors of functions, boundary conditions,
-expression evaluation, point evaluation and XDMF output.  The releases between (0.6-0.8)
-are not tested.  dolfinx 0.11 (the pip wheel, ``make test-dolfinx011``) is being brought
-up: its differences are branches on ``AT_LEAST_0_10``; the fast tier does not pass there
-yet.
+Three releases are served and tested: dolfinx 0.5.2 (Debian 12, ufl 2022.2, PETSc 3.18),
+dolfinx 0.9.0 (Debian 13, ufl 2024.2, basix 0.9, PETSc 3.22) and dolfinx 0.11.0 (the pip
+wheel ``dolfinx-solver-real``: ufl 2026.1, basix 0.11, PETSc 3.25; ``make
+test-dolfinx011``).  Every difference is a branch in this module on ``AT_LEAST_0_9``,
+``AT_LEAST_0_10`` (where 0.10 made the change) or ``AT_LEAST_0_11``
+(where only 0.11 was seen to differ), each with a comment naming the release; the rest of
+the package calls these helpers for meshes from gmsh, function spaces, PETSc vectors of
+functions, boundary conditions, expression evaluation, point evaluation and XDMF output.
+The releases between (0.6-0.8, 0.10) are not tested.  The wheels' other differences
+(h5py's own libhdf5, NLopt 2.11's exceptions) are here too.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from mpi4py import MPI
 DOLFINX_VERSION = dolfinx.__version__
 AT_LEAST_0_9 = tuple(int(p) for p in DOLFINX_VERSION.split(".")[:2]) >= (0, 9)
 AT_LEAST_0_10 = tuple(int(p) for p in DOLFINX_VERSION.split(".")[:2]) >= (0, 10)
+AT_LEAST_0_11 = tuple(int(p) for p in DOLFINX_VERSION.split(".")[:2]) >= (0, 11)
 
 
 def read_gmsh(path: Path, comm: MPI.Comm, gdim: int):
@@ -129,7 +131,8 @@ def reference_quadrature(mesh, degree: int) -> tuple[np.ndarray, np.ndarray]:
 
 def geometry_degree(mesh) -> int:
     """The degree of the mesh's coordinate element (2 for 27-node hexahedra)."""
-    return int(mesh.geometry.cmap.degree)
+    cmap = mesh.geometry.cmaps[0] if AT_LEAST_0_11 else mesh.geometry.cmap  # 0.11: cmaps
+    return int(cmap.degree)
 
 
 def vector_space(mesh, degree: int):
@@ -168,11 +171,51 @@ def create_mesh(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray, cell: str):
         domain = ufl.Mesh(basix.ufl.element("Lagrange", cell, 1, shape=(gdim,)))
     else:
         domain = ufl.Mesh(ufl.VectorElement("Lagrange", cell, 1))
+    if AT_LEAST_0_9:  # 0.10 put the element before the points: named, as 0.9 names them
+        return dolfinx.mesh.create_mesh(comm, cells, e=domain, x=x)
     return dolfinx.mesh.create_mesh(comm, cells, x, domain)
+
+
+def h5py() -> Any:
+    """The h5py module, its compiled parts bound to their own libhdf5.
+
+    dolfinx 0.11's pip wheel carries a libhdf5 (1.10) that ``dolfinx.fem.petsc`` brings into
+    the process's global symbol scope; h5py's wheel carries its own (1.14), and imported
+    after that its extensions bind to the global one ("Not a datatype" at import).  Loaded
+    with RTLD_DEEPBIND each binds to the library it was built with, on every platform."""
+    import os
+    import sys
+
+    if "h5py" in sys.modules:
+        return sys.modules["h5py"]
+    flags = sys.getdlopenflags()
+    sys.setdlopenflags(flags | getattr(os, "RTLD_DEEPBIND", 0))
+    try:
+        return importlib.import_module("h5py")
+    finally:
+        sys.setdlopenflags(flags)
+
+
+def constant(mesh, value: float) -> dolfinx.fem.Constant:
+    """A real constant on ``mesh`` in PETSc's scalar type (petsc4py 3.25's type hints make
+    ``PETSc.ScalarType`` a dtype, not a callable type)."""
+    from petsc4py import PETSc
+
+    return dolfinx.fem.Constant(mesh, np.asarray(value, dtype=PETSc.ScalarType)[()])
+
+
+def nlopt_stops(nlopt) -> tuple[type[BaseException], ...]:
+    """What ``opt.optimize`` raises when a callback stops it or L-BFGS gives up: NLopt 2.7's
+    ForcedStop and RuntimeError; NLopt 2.11 (the pip wheel beside dolfinx 0.11) raises its
+    own ``nlopt.exception`` classes, which are not RuntimeErrors."""
+    extra = getattr(nlopt, "exception", None)
+    return (nlopt.ForcedStop, RuntimeError, *([extra] if isinstance(extra, type) else []))
 
 
 def geometry_nodes(mesh) -> np.ndarray:
     """Geometry node indices of the local cells, one row per cell."""
+    if AT_LEAST_0_11:  # 0.11: one dofmap per cell type (mixed-topology meshes)
+        return np.asarray(mesh.geometry.dofmaps[0])
     dofmap = mesh.geometry.dofmap
     if AT_LEAST_0_9:  # 0.7 made the geometry dofmap a 2D array
         return np.asarray(dofmap)
@@ -244,6 +287,8 @@ def assemble_matrix(form, bcs, diagonal: float = 1.0):
 def index_map_vector(index_map, bs: int):
     """A ghosted PETSc vector of the DOF layout ``index_map`` with block size ``bs`` (0.10
     moved dolfinx.la.create_petsc_vector to dolfinx.la.petsc.create_vector)."""
+    if AT_LEAST_0_11:  # 0.11: a sequence of (index map, block size) pairs
+        return importlib.import_module("dolfinx.la.petsc").create_vector([(index_map, bs)])
     if AT_LEAST_0_10:
         return importlib.import_module("dolfinx.la.petsc").create_vector(index_map, bs)
     return dolfinx.la.create_petsc_vector(index_map, bs)

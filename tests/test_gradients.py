@@ -75,7 +75,7 @@ def _params():
         yield pytest.param(name, marks=marks, id=name.replace(" ", "_"))
 
 
-@pytest.mark.parametrize("case", _params())
+@pytest.mark.parametrize("case", list(_params()))
 def test_taylor_rate_of_the_reduced_gradient(case, shared_tmp):
     config, sets = CASES[case]
     args = ["gradcheck", config, "--out", shared_tmp, "-q"] + [a for s in sets for a in ("--set", s)]

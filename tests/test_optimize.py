@@ -114,8 +114,9 @@ def test_resume_after_sigkill_ends_identical(rtol_far, cells, linear, tmp_path):
 
 
 def _checkpointed(path: Path) -> int:
-    import h5py
+    from shapegrowth import compat
 
+    h5py = compat.h5py()
     try:
         with h5py.File(path, "r") as h5:
             return len(h5["f"])
@@ -152,7 +153,9 @@ def test_failed_state_solve_ends_the_run_with_the_best_design(tmp_path):
 
 
 def test_run_fields_hold_phi_and_the_filtered_growth(tmp_path):
-    import h5py
+    from shapegrowth import compat
+
+    h5py = compat.h5py()
 
     assert run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=2",
                    "--set", "growth.filter_length=0.05") == 0
@@ -303,7 +306,9 @@ def test_a_failed_run_solves_its_best_design_again_from_rest(tmp_path, monkeypat
     last one evaluated: the final state is that design solved from rest, not the cached
     evaluation over a state reset to zero, so the summary's shape and the shape from rest
     agree (the arc has one equilibrium) and the fields hold a deformed body."""
-    import h5py
+    from shapegrowth import compat
+
+    h5py = compat.h5py()
 
     _adjoint_breaks_down_at(monkeypatch, 3)
     assert run_cli("run", ARC, "--out", tmp_path, "-q",

@@ -60,7 +60,7 @@ def _reference_newton_seconds(model: ForwardModel, iterations: int = 3) -> float
     A = dolfinx.fem.petsc.create_matrix(st.jacobian_form)
     b = compat.create_vector(st.residual_form)
     du = A.createVecRight()
-    ksp = PETSc.KSP().create(model.comm)
+    ksp = PETSc.KSP().create(A.getComm())
     ksp.setType("preonly")
     ksp.getPC().setType("lu")
     ksp.getPC().setFactorSolverType("mumps")

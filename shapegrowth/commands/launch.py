@@ -3,7 +3,8 @@ ranks, and its run folder's summary read back as a :class:`RunSummary`.
 
 Used by ``bench`` (its cases and whole runs), the scripts (reproduce, reachable, square_ratio)
 and the tests.  OpenMPI refuses root without its two variables and more ranks than cores
-without oversubscription: both are set here, and nowhere else.
+without oversubscription: both are set here, in the environment, and nowhere else (not as
+``--oversubscribe``, a flag MPICH's mpiexec, the dolfinx wheel's, refuses).
 """
 
 from __future__ import annotations
@@ -25,11 +26,12 @@ MPI_ENVIRONMENT = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIR
 
 
 def mpirun(ranks: int) -> list[str]:
-    """``mpirun -n ranks --oversubscribe`` (or mpiexec), or an InputError naming the fix."""
+    """``mpirun -n ranks`` (or mpiexec), or an InputError naming the fix; the environment of
+    :func:`environment` lets OpenMPI oversubscribe (MPICH always may)."""
     launcher = shutil.which("mpirun") or shutil.which("mpiexec")
     if launcher is None:
         raise InputError(f"no mpirun or mpiexec on PATH for {ranks} ranks (use one rank)")
-    return [launcher, "-n", str(ranks), "--oversubscribe"]
+    return [launcher, "-n", str(ranks)]
 
 
 def environment(one_thread: bool = False, extra: dict[str, str] | None = None) -> dict[str, str]:
@@ -37,7 +39,7 @@ def environment(one_thread: bool = False, extra: dict[str, str] | None = None) -
     numba thread (what each rank of a run on several gets)."""
     env = dict(os.environ, **MPI_ENVIRONMENT)
     if one_thread:
-        env.update(OPENBLAS_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
+        env.update(OPENBLAS_NUM_THREADS="1", NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
     env.update(extra or {})
     return env
 

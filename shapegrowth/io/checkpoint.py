@@ -21,6 +21,7 @@ from typing import Protocol
 import numpy as np
 from mpi4py import MPI
 
+from .. import compat
 from ..errors import ResumeError
 from ..optim.interface import Answer, Callback, DriverResult, GlobalVector, Record, Step
 from ..timing import Timer
@@ -66,8 +67,7 @@ class Checkpoint:
 
     def write(self) -> None:
         if self.comm.rank == 0:
-            import h5py
-
+            h5py = compat.h5py()
             tmp = self.path.with_suffix(".tmp.h5")
             self.path.parent.mkdir(parents=True, exist_ok=True)
             with h5py.File(tmp, "w") as h5:
@@ -85,8 +85,7 @@ class Checkpoint:
 
     @classmethod
     def read(cls, path: Path, comm: MPI.Comm) -> Checkpoint:
-        import h5py
-
+        h5py = compat.h5py()
         ck = cls(path, comm)
         data = None
         if comm.rank == 0:

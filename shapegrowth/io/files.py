@@ -101,7 +101,8 @@ def write_growth(path: Path, growth: Growth, refine: int) -> None:
     values = [comm.gather(f.x.array[:owned], root=0) for f in growth.fields]
     if comm.rank == 0:
         path.parent.mkdir(parents=True, exist_ok=True)
-        arrays = {f.name: np.concatenate(v) for f, v in zip(growth.fields, values)}
+        arrays: dict[str, Any] = {f.name: np.concatenate(v)
+                                  for f, v in zip(growth.fields, values)}
         with open(path.with_suffix(".tmp"), "wb") as tmp:
             np.savez(tmp, points=np.concatenate(points), refine=refine, **arrays)
         os.replace(path.with_suffix(".tmp"), path)

@@ -88,7 +88,8 @@ class AdjointProblem:
                     if self._solve_with_state_factors():
                         return self.refinements
             except PETSc.Error as err:  # factors unusable: fall back to fresh ones
-                log.debug("adjoint: the state's factors failed (PETSc error %d)", err.ierr)
+                log.debug("adjoint: the state's factors failed (PETSc error %d)",
+                          linear.error_code(err))
         self.refinements = -1
         st.tangent_into(self.A)
         failure = self._fresh_solve(self.ksp, self.options)
@@ -108,8 +109,8 @@ class AdjointProblem:
             with options.pushed():
                 ksp.solve(self.rhs, compat.petsc_vec(self.p))
         except PETSc.Error as err:  # e.g. a factorisation that broke down
-            return f"PETSc error {err.ierr}"
-        return linear.ksp_reason(ksp) if ksp.getConvergedReason() < 0 else ""
+            return f"PETSc error {linear.error_code(err)}"
+        return linear.ksp_reason(ksp) if linear.reason_of(ksp) < 0 else ""
 
     def _solve_with_state_factors(self) -> bool:
         """p by the state solver's last factors and refinement; False if it did not converge.
@@ -126,7 +127,7 @@ class AdjointProblem:
         r_norm = b_norm
         for k in range(self.max_refinements + 1):
             ksp.solve(r, dp)
-            if ksp.getConvergedReason() < 0:
+            if linear.reason_of(ksp) < 0:
                 return False
             p.axpy(1.0, dp)
             p.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)

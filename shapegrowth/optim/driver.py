@@ -48,6 +48,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .. import compat
 from ..errors import AdjointSolveError, StateSolveError
 from ..status import Outcome
 from .interface import Callback, DesignProblem, DriverResult, GlobalVector, Record, Step
@@ -287,7 +288,7 @@ class Driver:
             try:
                 x = opt.optimize(np.clip(x, box_lo, box_hi))
                 code = opt.last_optimize_result()
-            except (nlopt.ForcedStop, RuntimeError):
+            except compat.nlopt_stops(nlopt):
                 # a stop from the callback; L-BFGS reports ours as a generic "nlopt failure"
                 if not self._over_budget:
                     if self.failure is not None:

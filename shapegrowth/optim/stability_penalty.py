@@ -30,6 +30,7 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
+from .. import compat
 from ..config import StabilityPenaltyConfig
 from ..physics.stability import StabilityProblem
 from ..physics.state import StateProblem
@@ -46,7 +47,7 @@ class StabilityPenalty:
         self.modes = [dolfinx.fem.Function(state.V, name=f"mode_{i}")
                       for i in range(settings.modes)]
         mesh = state.domain.mesh
-        self.coefficients = [dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
+        self.coefficients = [compat.constant(mesh, 0.0)
                              for _ in self.modes]
         test, trial = state.jacobian_ufl.arguments()
         quadratic = sum(c * ufl.replace(state.jacobian_ufl, {test: phi, trial: phi})

@@ -32,7 +32,7 @@ class HelmholtzFilter:
         u, v = ufl.TrialFunction(space), ufl.TestFunction(space)
         # the growth fields are at most quadratic: degree 4 integrates the mass matrix exactly
         dx = ufl.Measure("dx", domain=space.mesh, metadata={"quadrature_degree": 4})
-        l2 = dolfinx.fem.Constant(space.mesh, PETSc.ScalarType(self.length**2))
+        l2 = compat.constant(space.mesh, self.length**2)
         self.K = dolfinx.fem.petsc.assemble_matrix(
             dolfinx.fem.form((u * v + l2 * ufl.inner(ufl.grad(u), ufl.grad(v))) * dx))
         self.K.assemble()

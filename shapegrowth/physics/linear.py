@@ -38,6 +38,7 @@ import logging
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import Any
 
 from petsc4py import PETSc
 
@@ -74,12 +75,15 @@ def preset_options(name: str, role: str) -> dict[str, object]:
                                  "ksp_rtol": rtol, "ksp_atol": 0.0, "ksp_max_it": 1000}
     if name == "mumps":
         return dict(EXACT)
+    # ICNTL(14) 30 (the working space's margin over its estimate; MUMPS's default 20): MUMPS
+    # 5.8 (the pip wheel's) ran out of it on two ranks in the LDL^T of a stretched P2 cube
+    # (INFO(1) = -9, 2640 entries short); 30 holds there
     if name == "mumps_ldlt":
         return {"ksp_type": "preonly", "pc_type": "cholesky",
-                "pc_factor_mat_solver_type": "mumps"}
+                "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_14": 30}
     if name == "mumps_blr":
         return {**krylov, "ksp_max_it": 200, "pc_type": "cholesky",
-                "pc_factor_mat_solver_type": "mumps",
+                "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_14": 30,
                 "mat_mumps_icntl_35": 2, "mat_mumps_icntl_37": 1, "mat_mumps_cntl_7": 1e-8}
     if name == "gamg":
         return {**krylov, "pc_type": "gamg", "pc_gamg_type": "agg",
@@ -206,7 +210,19 @@ def reset_after_failure(ksp: PETSc.KSP) -> None:
     ksp.reset()
 
 
+def reason_of(solver: Any) -> int:
+    """A KSP's or SNES's converged reason as an int (petsc4py 3.25 types it as a class of its
+    own, which its type hints do not let int() take)."""
+    return int(solver.getConvergedReason())
+
+
+def error_code(err: PETSc.Error) -> int:
+    """PETSc's error code of ``err`` (its first argument on every petsc4py served; 3.25's
+    type hints leave out the ``ierr`` attribute)."""
+    return int(err.args[0]) if err.args else -1
+
+
 def ksp_reason(ksp: PETSc.KSP) -> str:
-    reason = ksp.getConvergedReason()
+    reason = reason_of(ksp)
     return f"KSP {KSP_REASONS.get(reason, str(reason))} after {ksp.getIterationNumber()} " \
            "iterations"

@@ -45,7 +45,7 @@ class SolverOptions:
         """The options in PETSc's table under this solver's prefix, for the block's time."""
         opts = PETSc.Options()
         for key, value in self.defaults.items():
-            opts[self.prefix + key] = value
+            opts.setValue(self.prefix + key, value)
         for key, value in self.user.items():
             set_option(opts, self.prefix + key, value)
         try:

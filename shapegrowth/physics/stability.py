@@ -39,6 +39,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import compat
+from . import linear
 from .options import SolverOptions
 
 log = logging.getLogger(__name__)
@@ -133,7 +134,7 @@ class StabilityProblem:
                 break
             except PETSc.Error as err:  # MUMPS's INFOG(1) = -9: more workspace (PETSc 3.22)
                 self.eps.getST().getKSP().reset()
-                failure = f"PETSc error {err.ierr}"
+                failure = f"PETSc error {linear.error_code(err)}"
         else:
             raise StabilityError(f"the tangent's eigenproblem failed ({failure})")
         factor = self.eps.getST().getKSP().getPC().getFactorMatrix()

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import logging
 import time
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -54,6 +55,14 @@ log = logging.getLogger(__name__)
 
 _INSERT, _ADD = PETSc.InsertMode.INSERT, PETSc.InsertMode.ADD
 _FORWARD, _REVERSE = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
+
+
+def _alive(ref: weakref.ref[StateProblem]) -> StateProblem:
+    """The state a solver callback belongs to (a solver outliving its state is a bug)."""
+    state = ref()
+    if state is None:
+        raise RuntimeError("a solver callback outlived its state problem")
+    return state
 
 
 @dataclass
@@ -86,7 +95,7 @@ class StateProblem:
         self.material = MooneyRivlin(cfg.material.mu1, cfg.material.mu2, cfg.material.lmbda)
         self.kinematics = Kinematics(cfg.section, mesh, self.material)
         self.weight = self.kinematics.weight()  # 2 pi R for a body of revolution, else 1
-        self.load_scale = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
+        self.load_scale = compat.constant(mesh, 1.0)
 
         metadata = {"quadrature_degree": cfg.quadrature_degree}
         self.dx = ufl.Measure("dx", domain=mesh, metadata=metadata)
@@ -153,7 +162,7 @@ class StateProblem:
     def force_scale(self) -> float:
         """(mu1 + mu2 + lambda) |body|^((d-1)/d): a stress times a cross-section."""
         mesh = self.domain.mesh
-        one = dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0))
+        one = compat.constant(mesh, 1.0)
         volume = mesh.comm.allreduce(dolfinx.fem.assemble_scalar(
             dolfinx.fem.form(one * self.weight * ufl.dx(domain=mesh))), MPI.SUM)
         m = self.cfg.material
@@ -181,14 +190,21 @@ class StateProblem:
                                                                self.linear),
                                      self.cfg.solver.petsc_options)
         snes.setOptionsPrefix(self.options.prefix)
-        snes.setFunction(lambda _snes, x, b: self.assemble_residual(x, b), self.b)
-        snes.setJacobian(lambda _snes, x, A, _P: self.assemble_tangent(x, A), self.A)
+        # the SNES holds its callbacks, and petsc4py 3.25 does not show them to Python's
+        # garbage collector: callbacks holding the state would keep it (its mesh, matrices
+        # and MPI communicators) alive for ever.  Measured with dolfinx 0.11's wheel: 17
+        # communicators a model, and MPICH's 2048 ran out in a long session (MUMPS then
+        # crashed in its symmetric scaling)
+        state = weakref.ref(self)
+        snes.setFunction(lambda _snes, x, b: _alive(state).assemble_residual(x, b), self.b)
+        snes.setJacobian(lambda _snes, x, A, _P: _alive(state).assemble_tangent(x, A), self.A)
         try:
             with self.options.pushed():
                 snes.setFromOptions()
         except PETSc.Error as err:
+            code = linear.error_code(err)
             raise ConfigError([f"solver.petsc_options: PETSc rejected "
-                               f"{self.options.user_keys} (error code {err.ierr})"]) from None
+                               f"{self.options.user_keys} (error code {code})"]) from None
         if self.linear in linear.MULTIGRID:
             self.A.setNearNullSpace(rigid_body_modes(self.V))
         self._exact: tuple[PETSc.KSP, SolverOptions] | None = None  # made at a fallback
@@ -254,7 +270,7 @@ class StateProblem:
                 if previous <= target:
                     break
                 ksp.solve(b, du)
-                if ksp.getConvergedReason() < 0:
+                if linear.reason_of(ksp) < 0:
                     break
                 x.axpy(-1.0, du)
                 x.ghostUpdate(addv=_INSERT, mode=_FORWARD)
@@ -341,11 +357,12 @@ class StateProblem:
             with self.options.pushed():
                 self.snes.solve(None, x)
         except PETSc.Error as err:  # e.g. a factorisation that broke down
-            return False, self.snes.getIterationNumber(), f"PETSc error {err.ierr}", True
+            failure = f"PETSc error {linear.error_code(err)}"
+            return False, self.snes.getIterationNumber(), failure, True
         finally:
             if reference is not None or rtol != tolerances[0]:
                 self.snes.setTolerances(rtol=tolerances[0], atol=tolerances[1])
-        reason = self.snes.getConvergedReason()
+        reason = linear.reason_of(self.snes)
         its = self.snes.getIterationNumber()
         self.u.x.scatter_forward()
         ok = self.domain.mesh.comm.allreduce(

@@ -267,7 +267,7 @@ class SmoothHausdorff:
         d, mu = self._distance(gmin - np.log(Z / total) / self.alpha)
         q_total = comm.allreduce(float(q_weights.sum()), MPI.SUM)
         A = comm.allreduce(float(np.sum(q_weights * d**self.beta)), MPI.SUM)
-        farthest = comm.allreduce(float(nearest.max(initial=0.0)), MPI.MAX)
+        farthest = comm.allreduce(float(np.max(nearest)) if nearest.size else 0.0, MPI.MAX)
         D = (A / q_total) ** (1.0 / self.beta)
         if scattered is not None:  # the kernel's coefficient times what is common to all
             scattered *= (D ** (1 - self.beta) * q_top * self.alpha ** (1 - self.beta)

@@ -114,7 +114,7 @@ def _exp(x):
     p811 = p89 + r2 * p1011
     p812 = p811 + r4 * (1.0 / 479001600.0)
     p = (p03 + r4 * p47) + (r4 * r4) * p812
-    return p * _bits_as_float((np.int64(n) + 1023) << 52)  # a numba intrinsic
+    return p * _bits_as_float((int(n) + 1023) << 52)  # a numba intrinsic
 
 
 @numba.njit(cache=True)
