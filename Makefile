@@ -22,7 +22,7 @@ help:
 	@echo "make test   - the fast tier: lint, types, tests serial and under mpirun -n $(NP) (minutes)"
 	@echo "make test-all - the rest: the slow tests serial and under mpirun, and the notebooks"
 	@echo "make test-debian13 - the fast tier in a Debian 13 root (dolfinx 0.9; root, debootstrap)"
-	@echo "make test-dolfinx011 - the fast tier on dolfinx 0.11's pip wheel in that root (not yet passing)"
+	@echo "make test-dolfinx011 - the fast tier on dolfinx 0.11's pip wheels in that root (root)"
 	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
 	@echo "make bench  - the performance benchmark (results/bench/bench.json, minutes)"
 	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (about 50 min on 2 cores)"
@@ -59,8 +59,8 @@ test-all: setup
 test-debian13:
 	@scripts/debian13.sh
 
-# The fast tier on dolfinx 0.11 (the pip wheel dolfinx-solver-real) in a venv inside that
-# root; not yet a leg of .ci/run (compat.py does not serve 0.11 yet)
+# The fast tier on dolfinx 0.11 (the pip wheel dolfinx-solver-real, the extra `wheels`) in a
+# venv inside that root, serially and on two ranks; skipped with one line where it cannot run
 test-dolfinx011:
 	@scripts/dolfinx011.sh
 

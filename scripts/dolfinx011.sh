@@ -5,21 +5,20 @@
 # Debian 13 root that `make test-debian13` builds (its Python 3.13), serially and under the
 # wheel's own `mpiexec -n 2`.
 #
-# The venv (/opt/dolfinx011 in the root, ~800 MB, ~2 min to install) is made once; pip
+# The venv (/opt/dolfinx011 in the root, ~1 GB, ~2 min to install) is made once; pip
 # reaches the package index with the host's certificates.  The wheel's MPICH needs /proc,
 # /sys and a tmpfs /dev/shm in the root (without them MPI_Init fails: UCX "Endpoint
 # timeout"), mounted here and unmounted however the run ends; its libmpi sits in the venv's
 # lib/, which LD_LIBRARY_PATH names.  A machine where it cannot run skips it with one line.
 #
-# Not yet a leg of .ci/run: the package's compat module does not serve 0.11 yet (issue:
-# dolfinx.io.gmshio became dolfinx.io.gmsh, and more).  SHAPEGROWTH_DOLFINX011_TESTS picks
-# the test files (default: all of tests/).
+# The venv's packages are the checkout's own extras (`pip install -e ".[wheels,test]"`, the
+# README's pip route), reinstalled when pyproject.toml changes.  SHAPEGROWTH_DOLFINX011_TESTS
+# picks the test files (default: all of tests/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 ROOT=${SHAPEGROWTH_DEBIAN13_ROOT:-$HOME/.cache/shapegrowth/debian13}
 VENV=/opt/dolfinx011
-WHEELS="dolfinx-solver-real==0.11.0.post0 gmsh nlopt numba pytest pyyaml h5py matplotlib scipy"
 
 skip() { echo "test-dolfinx011: skipped: $*"; exit 0; }
 [ "$(id -u)" = 0 ] || skip "needs root (chroot and mount); run it as root"
@@ -33,21 +32,23 @@ fi
 . scripts/root_common.sh  # (after the checks above, which need nothing beside this script)
 root_pass_settings
 in_root() {
-  chroot "$ROOT" /usr/bin/env -i HOME=/root LANG=C.UTF-8 PATH=$VENV/bin:/usr/bin:/bin \
-    LD_LIBRARY_PATH=$VENV/lib "${PASS[@]}" bash -c "$1"
+  chroot "$ROOT" /usr/bin/env -i HOME=/root LANG=C.UTF-8 \
+    PATH=$VENV/bin:/usr/sbin:/usr/bin:/sbin:/bin LD_LIBRARY_PATH=$VENV/lib "${PASS[@]}" \
+    bash -c "$1"
 }
-
-if [ ! -f "$ROOT$VENV/.shapegrowth-ready" ]; then
-  echo "test-dolfinx011: installing the dolfinx 0.11 wheel into $ROOT$VENV (about 2 minutes, once)"
-  rm -rf "${ROOT:?}$VENV"
-  in_root "python3 -m venv $VENV && pip install -q $WHEELS" \
-    || skip "pip could not install the wheel (no package index reachable?)"
-  touch "$ROOT$VENV/.shapegrowth-ready"
-fi
 
 SRC=/work/shapegrowth011
 root_copy_checkout "$SRC"
 root_mount
+
+WANT=$(sha1sum pyproject.toml | cut -c1-40)  # the extras as this checkout names them
+if [ "$(cat "$ROOT$VENV/.shapegrowth-ready" 2>/dev/null)" != "$WANT" ]; then
+  echo "test-dolfinx011: installing the dolfinx 0.11 wheels into $ROOT$VENV (about 2 minutes)"
+  rm -rf "${ROOT:?}$VENV"
+  in_root "python3 -m venv $VENV && cd $SRC && pip install -q -e '.[wheels,test]'" \
+    || skip "pip could not install the wheels (no package index reachable?)"
+  echo "$WANT" > "$ROOT$VENV/.shapegrowth-ready"
+fi
 
 TESTS=${SHAPEGROWTH_DOLFINX011_TESTS:-tests}
 start=$(date +%s)
@@ -55,6 +56,7 @@ in_root "cd $SRC && pip install -q --no-deps --no-build-isolation -e . \
   && python -c 'import dolfinx, ufl, basix; from petsc4py import PETSc; \
 print(\"dolfinx\", dolfinx.__version__, \"ufl\", ufl.__version__, \"basix\", basix.__version__, \
 \"PETSc\", PETSc.Sys.getVersion())' \
+  && mypy \
   && python -m pytest -q -p no:cacheprovider -m 'not slow' $TESTS \
   && { mpiexec -n 2 scripts/rank0-output.sh python -m pytest -q -p no:cacheprovider \
        -m 'mpi and not slow' $TESTS; status=\$?; [ \$status = 0 ] || [ \$status = 5 ]; }"

@@ -1,5 +1,6 @@
-"""The second platform's leg (`make test-debian13`) says why where it cannot run, and the
-compat module is the only place that asks for dolfinx's version."""
+"""The second and third platforms' legs (`make test-debian13`, `make test-dolfinx011`) say why
+where they cannot run, and the compat module is the only place that asks for dolfinx's
+version."""
 
 from __future__ import annotations
 
@@ -64,3 +65,22 @@ def test_only_compat_asks_for_the_dolfinx_version():
                if p.name != "compat.py"
                and any(word in p.read_text() for word in ("dolfinx.__version__", "AT_LEAST_"))]
     assert readers == []
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="the check after the root check")
+def test_the_dolfinx011_leg_skips_with_one_line_without_a_debian13_root(tmp_path):
+    """The third platform's leg lives in the second's root: where that cannot be built (no
+    debootstrap here), the leg says so after the second's own line, and succeeds."""
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    for tool in ("bash", "id", "dirname", "chroot"):
+        found = shutil.which(tool)
+        assert found, tool
+        (bin_dir / tool).symlink_to(found)
+    env = {"PATH": str(bin_dir), "HOME": str(tmp_path),
+           "SHAPEGROWTH_DEBIAN13_ROOT": str(tmp_path / "no-root-here")}
+    result = _run([str(bin_dir / "bash"), str(ROOT / "scripts" / "dolfinx011.sh")], env)
+    assert result.returncode == 0
+    assert result.stdout.strip().splitlines()[-1] == (
+        "test-dolfinx011: skipped: no Debian 13 root (make test-debian13 says why)")
+    assert not (tmp_path / "no-root-here").exists()
