@@ -17,7 +17,7 @@ root_pass_settings() {
 
 # The checkout's tracked and untracked-but-not-ignored files copied to $ROOT$1 (its .venv
 # and .cache kept), with the mesh files made here: Debian 13's gmsh 4.13 splits some cells
-# of the same geometry differently from Debian 12's 4.11 (20 of the tiny beam's 240
+# of the same geometry differently from Debian 12's 4.8 (20 of the tiny beam's 240
 # tetrahedra), so only on the same meshes do both platforms give the same numbers
 # (measured: the tiny arc run's first objective to 4e-14, its 30th to 6e-7, Newton's
 # tolerance)
