@@ -129,6 +129,14 @@ def reference_quadrature(mesh, degree: int) -> tuple[np.ndarray, np.ndarray]:
     return basix.make_quadrature(cell, degree)
 
 
+def space_degree(space) -> int:
+    """The polynomial degree of a Lagrange space's element."""
+    element = space.ufl_element()
+    if AT_LEAST_0_9:  # 0.7: a basix.ufl element, its degree a property
+        return int(element.degree)
+    return int(element.degree())
+
+
 def geometry_degree(mesh) -> int:
     """The degree of the mesh's coordinate element (2 for 27-node hexahedra)."""
     cmap = mesh.geometry.cmaps[0] if AT_LEAST_0_11 else mesh.geometry.cmap  # 0.11: cmaps

@@ -1,0 +1,232 @@
+"""A face of the body as a weighted point cloud, its areas pushed forward exactly (Nanson).
+
+The volume cloud (:mod:`.clouds`) samples the body at the quadrature points of its cells; a
+face (a named part of the boundary, or all of it) is sampled at the quadrature points of its
+facets: points Phi(X_q) = X_q + u(X_q), weights
+
+    w_q |cof F(X_q) N(X_q)|      (da = J |F^-T N| dA = |cof F N| dA),
+
+w_q the facet's reference area weights and N its outward unit normal, so that sums over the
+cloud are integrals over the deformed face.  Everything is evaluated here with basix's
+tabulations at the facets' points mapped into the reference cell (one map per local facet),
+so it serves every cell kind (triangles, tetrahedra, quadrilaterals, hexahedra) and dolfinx
+release alike.
+
+A derivative of a function of the cloud with respect to its points (g_x) and weights (g_w)
+becomes a derivative with respect to u through
+
+    dJ/du [v] = sum_q g_x(q) . v(X_q) + g_w(q) w_q d|cof F N| [grad v](X_q),
+    d|cof F N| [H] = det F ( (m . F^-T N) tr(F^-1 H) - m . F^-T H^T F^-T N ),  m = cof F N / |.|,
+
+assembled here cell by cell (for H = e_k (x) grad phi_a: det F (r_k (p . N) - q_k (g . p)) with
+g = grad phi_a, r = g^T F^-1, p = F^-1 m, q = F^-T N).  The elements' degrees are at most 2,
+whose Lagrange DOFs need no permutation between neighbouring cells.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import basix
+import dolfinx.fem
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from .. import compat
+from .hausdorff import PointCloud
+
+_FACET = {"interval": "point", "triangle": "interval", "quadrilateral": "interval",
+          "tetrahedron": "triangle", "hexahedron": "quadrilateral"}
+
+
+@dataclass(frozen=True)
+class _Group:
+    """The facets that are their cells' ``local``-th: the cells, the displacement element's
+    values and reference gradients at the points (1 + tdim, nq, ndofs), the geometry
+    element's (1 + tdim, nq, nnodes), the facet's reference outward normal and its points'
+    reference area weights."""
+
+    cells: np.ndarray
+    phi: np.ndarray
+    gphi: np.ndarray
+    normal: np.ndarray
+    weights: np.ndarray
+
+
+def _element(cell: basix.CellType, degree: int):
+    return basix.create_element(basix.ElementFamily.P, cell, degree,
+                                basix.LagrangeVariant.gll_warped)
+
+
+def boundary_facets(mesh) -> np.ndarray:
+    """The local facets on the body's boundary (each with one cell)."""
+    fdim = mesh.topology.dim - 1
+    mesh.topology.create_connectivity(fdim, fdim + 1)
+    return np.asarray(dolfinx.mesh.exterior_facet_indices(mesh.topology), dtype=np.int32)
+
+
+class FacetCloud:
+    """Quadrature points of degree ``degree`` on the boundary facets ``facets`` (local
+    indices) of the displacement space ``space``'s mesh."""
+
+    def __init__(self, space: dolfinx.fem.FunctionSpace, facets: np.ndarray, degree: int):
+        mesh = space.mesh
+        self.space, self.mesh, self.degree = space, mesh, degree
+        tdim, self.gdim = mesh.topology.dim, mesh.geometry.dim
+        if tdim != self.gdim:
+            raise ValueError("a facet cloud needs a body of the space's own dimension")
+        fdim = tdim - 1
+        mesh.topology.create_connectivity(fdim, tdim)
+        mesh.topology.create_connectivity(tdim, fdim)
+        f_to_c = mesh.topology.connectivity(fdim, tdim)
+        c_to_f = mesh.topology.connectivity(tdim, fdim)
+        owned = mesh.topology.index_map(tdim).size_local
+        cell_name = mesh.topology.cell_type.name
+        cell = getattr(basix.CellType, cell_name)
+        facet_cell = getattr(basix.CellType, _FACET[cell_name])
+        ref_x = np.asarray(basix.geometry(cell), dtype=float)
+        centre = ref_x.mean(axis=0)
+        qpoints, qweights = basix.make_quadrature(facet_cell, degree)
+        qpoints = np.asarray(qpoints, dtype=float).reshape(len(qweights), -1)
+        self.nq = len(qweights)
+        element = _element(cell, compat.space_degree(space))
+        geometry = _element(cell, compat.geometry_degree(mesh))
+        nodes = compat.geometry_nodes(mesh)
+        # per local facet: its cells, the tabulations at its points, its reference normal
+        self.groups: list[_Group] = []
+        for f, vertices in enumerate(basix.topology(cell)[fdim]):
+            cells = np.array([c for c in map(int, facets_cells(facets, f_to_c, c_to_f, f))
+                              if c < owned], dtype=np.int32)
+            if len(cells) == 0:
+                continue
+            v = ref_x[vertices]
+            tangents = (v[1:fdim + 1] - v[0]).T  # (tdim, fdim): v0 + T xi maps the facet
+            points = v[0] + qpoints @ tangents.T
+            if fdim == 2:
+                normal = np.cross(tangents[:, 0], tangents[:, 1])
+            elif fdim == 1:
+                normal = np.array([tangents[1, 0], -tangents[0, 0]])
+            else:
+                normal = v[0] - centre
+            area = np.linalg.norm(normal) if fdim else 1.0  # reference area per xi area
+            normal = normal / np.linalg.norm(normal)
+            if normal @ (points.mean(axis=0) - centre) < 0:
+                normal = -normal
+            phi = element.tabulate(1, points)[:, :, :, 0]  # (1 + tdim, nq, ndofs)
+            gphi = geometry.tabulate(1, points)[:, :, :, 0]  # (1 + tdim, nq, nnodes)
+            self.groups.append(_Group(cells, phi, gphi, normal, np.asarray(qweights) * area))
+        self._prepare(nodes)
+
+    def _prepare(self, nodes: np.ndarray) -> None:
+        """Reference positions, unit normals and areas of every point, and the inverse
+        Jacobians of the reference cells there."""
+        x = self.mesh.geometry.x[:, :self.gdim]
+        X, N, w, Jinv, dofs = [], [], [], [], []
+        dofmap = self.space.dofmap
+        for group in self.groups:
+            xc = x[nodes[group.cells]]  # (nc, nnodes, gdim)
+            J = np.einsum("cnx,tqn->cqxt", xc, group.gphi[1:])  # dX/dxi at the points
+            Ji = np.linalg.inv(J)
+            detJ = np.linalg.det(J)
+            cof_n = detJ[..., None] * np.einsum("cqtx,t->cqx", Ji, group.normal)  # cof(J) n
+            size = np.linalg.norm(cof_n, axis=-1)
+            X.append(np.einsum("cnx,qn->cqx", xc, group.gphi[0]))
+            N.append(cof_n / size[..., None])
+            w.append(size * group.weights)
+            Jinv.append(Ji)
+            dofs.append(np.array([dofmap.cell_dofs(c) for c in group.cells], dtype=np.int64))
+        self.X = np.concatenate([a.reshape(-1, self.gdim) for a in X]) if X else \
+            np.zeros((0, self.gdim))
+        self.N = np.concatenate([a.reshape(-1, self.gdim) for a in N]) if N else \
+            np.zeros((0, self.gdim))
+        self.w = np.concatenate([a.reshape(-1) for a in w]) if w else np.zeros(0)
+        self._Jinv, self._dofs = Jinv, dofs
+
+    def __len__(self) -> int:
+        return len(self.w)
+
+    def area(self) -> float:
+        """The reference face's area (all ranks)."""
+        return self.mesh.comm.allreduce(float(self.w.sum()), MPI.SUM)
+
+    def reference(self) -> PointCloud:
+        return PointCloud(self.X.copy(), self.w.copy())
+
+    def _kinematics(self, u: dolfinx.fem.Function):
+        """Per group: u at the points (nc, nq, gdim) and F (nc, nq, gdim, gdim)."""
+        bs = self.gdim
+        values = u.x.array.reshape(-1, bs)
+        out = []
+        for group, Ji, dofs in zip(self.groups, self._Jinv, self._dofs):
+            uc = values[dofs]  # (nc, ndofs, bs)
+            uq = np.einsum("cak,qa->cqk", uc, group.phi[0])
+            grad_ref = np.einsum("cak,tqa->cqkt", uc, group.phi[1:])
+            F = np.eye(bs) + np.einsum("cqkt,cqtx->cqkx", grad_ref, Ji)
+            out.append((uq, F))
+        return out
+
+    def deformed(self, u: dolfinx.fem.Function) -> PointCloud:
+        """The deformed face: points X + u, weights w |cof F N|."""
+        points, weights = [], []
+        start = 0
+        for uq, F in self._kinematics(u):
+            n = uq.shape[0] * uq.shape[1]
+            N = self.N[start:start + n].reshape(uq.shape)
+            cofN = np.linalg.det(F)[..., None] * np.einsum(
+                "cqxk,cqx->cqk", np.linalg.inv(F), N)  # cof F N = det F F^-T N
+            points.append(self.X[start:start + n] + uq.reshape(-1, self.gdim))
+            weights.append(self.w[start:start + n] * np.linalg.norm(cofN, axis=-1).ravel())
+            start += n
+        if not points:
+            return PointCloud(np.zeros((0, self.gdim)), np.zeros(0))
+        return PointCloud(np.concatenate(points), np.concatenate(weights))
+
+    def pullback(self, u: dolfinx.fem.Function, grad_points: np.ndarray,
+                 grad_weights: np.ndarray) -> PETSc.Vec:
+        """dJ/du as a vector on u's space, from J's derivatives with respect to the deformed
+        cloud's points and weights (this rank's points; summed over the ranks)."""
+        bs = self.gdim
+        local = np.zeros(u.x.array.size)
+        start = 0
+        for (uq, F), group, Ji, dofs in zip(self._kinematics(u), self.groups, self._Jinv,
+                                            self._dofs):
+            phi = group.phi
+            nc, nq = uq.shape[:2]
+            n = nc * nq
+            N = self.N[start:start + n].reshape(nc, nq, bs)
+            gx = grad_points[start:start + n].reshape(nc, nq, bs)
+            gw = (grad_weights[start:start + n] * self.w[start:start + n]).reshape(nc, nq)
+            Fi = np.linalg.inv(F)
+            detF = np.linalg.det(F)
+            cofN = detF[..., None] * np.einsum("cqxk,cqx->cqk", Fi, N)
+            m = cofN / np.linalg.norm(cofN, axis=-1)[..., None]
+            p = np.einsum("cqkx,cqx->cqk", Fi, m)  # F^-1 m
+            q = np.einsum("cqxk,cqx->cqk", Fi, N)  # F^-T N
+            g = np.einsum("tqa,cqtx->cqax", phi[1:], Ji)  # physical gradients of the basis
+            r = np.einsum("cqax,cqxk->cqak", g, Fi)  # g^T F^-1
+            pN = np.einsum("cqk,cqk->cq", p, N)
+            gp = np.einsum("cqax,cqx->cqa", g, p)
+            da = detF[..., None, None] * (r * pN[..., None, None]
+                                          - q[:, :, None, :] * gp[..., None])  # (c,q,a,k)
+            contribution = (np.einsum("cqk,qa->cak", gx, phi[0])
+                            + np.einsum("cq,cqak->cak", gw, da))
+            np.add.at(local, (dofs[:, :, None] * bs + np.arange(bs)).ravel(),
+                      contribution.ravel())
+            start += n
+        out = dolfinx.fem.Function(u.function_space)
+        out.x.array[:] = local
+        vec = compat.petsc_vec(out)
+        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return vec.copy()  # owned by the caller, not by ``out``
+
+
+def facets_cells(facets: np.ndarray, f_to_c, c_to_f, local: int) -> list[int]:
+    """The cells of ``facets`` in which the facet is the cell's ``local``-th."""
+    out = []
+    for facet in facets:
+        cell = int(f_to_c.links(facet)[0])
+        if int(c_to_f.links(cell)[local]) == int(facet):
+            out.append(cell)
+    return out
+

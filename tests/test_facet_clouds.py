@@ -1,0 +1,97 @@
+"""A face of the body as a weighted cloud (shape/facet_clouds.py): its reference areas in
+closed form, areas pushed forward exactly (Nanson) under a uniform stretch, and the exact
+derivative of a function of the deformed face with respect to the displacement (Taylor
+rate 2), on tetrahedra, hexahedra, triangles and a curved tube; serially and on two ranks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import CONFIGS
+from mpi4py import MPI
+
+BEAM = CONFIGS / "tiny" / "beam_bend.yaml"  # 1 x 0.1 x 0.02, clamped at x1_min
+SQUARE = CONFIGS / "tiny" / "square_disk.yaml"  # side 4, plane strain
+TUBE = CONFIGS / "tiny" / "tube_axial.yaml"
+
+
+def _cloud(config, sets=(), faces=None, degree=4):
+    from shapegrowth.config import load
+    from shapegrowth.physics.model import ForwardModel
+    from shapegrowth.shape.facet_clouds import FacetCloud, boundary_facets
+
+    model = ForwardModel.build(load(config, list(sets)))
+    domain = model.domain
+    if faces is None:
+        facets = boundary_facets(domain.mesh)
+    else:
+        tags = domain.facet_tags
+        facets = np.concatenate([tags.indices[tags.values == domain.boundaries[f]]
+                                 for f in faces])
+    return model, FacetCloud(model.state.V, facets, degree)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("cells", ["simplex", "hex"])
+def test_the_faces_of_a_box_have_their_areas(cells):
+    sets = [f"mesh.cells={cells}"]
+    areas = {"x1_max": 0.1 * 0.02, "x2_min": 1.0 * 0.02, "x3_max": 1.0 * 0.1}
+    for face, area in areas.items():
+        assert _cloud(BEAM, sets, [face])[1].area() == pytest.approx(area, rel=1e-12)
+    assert _cloud(BEAM, sets, ["x1_max", "x3_max"])[1].area() == pytest.approx(0.102, rel=1e-12)
+    assert _cloud(BEAM, sets)[1].area() == pytest.approx(2 * (0.1 + 0.02 + 0.002), rel=1e-12)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("config, sets, dim", [(BEAM, [], 3), (BEAM, ["mesh.cells=hex"], 3),
+                                                (SQUARE, [], 2), (TUBE, [], 3)])
+def test_a_uniform_stretch_scales_points_and_areas(config, sets, dim):
+    """u = (s - 1) X: the face's points move to s X and its area grows by s^(dim - 1)."""
+    model, cloud = _cloud(config, sets)
+    u = model.state.u
+    s = 1.3
+    u.interpolate(lambda x: (s - 1) * x[:dim])
+    deformed = cloud.deformed(u)
+    assert np.abs(deformed.points - s * cloud.X).max(initial=0.0) < 1e-12
+    area = MPI.COMM_WORLD.allreduce(float(deformed.weights.sum()), MPI.SUM)
+    assert area == pytest.approx(s ** (dim - 1) * cloud.area(), rel=1e-12)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("config, sets, dim", [(BEAM, [], 3), (BEAM, ["mesh.cells=hex"], 3),
+                                                (SQUARE, [], 2), (TUBE, [], 3)])
+def test_the_pullback_is_the_derivative_of_a_function_of_the_deformed_face(config, sets, dim):
+    """J(u) = sum_q w_q(u) |x_q(u)|^3 over the deformed boundary: the pullback of its
+    derivatives in the cloud's points and weights is dJ/du (Taylor remainders fall at rate
+    2), at a displacement that bends, shears and stretches."""
+    import dolfinx.fem
+
+    from shapegrowth import compat
+
+    model, cloud = _cloud(config, sets)
+    comm = MPI.COMM_WORLD
+    u = model.state.u
+    u.interpolate(lambda x: np.array([0.1 * np.sin(3 * x[0]), 0.05 * x[0] * x[1] + 0.02,
+                                      0.08 * x[0] ** 2][:dim]))
+
+    def objective(v) -> float:
+        c = cloud.deformed(v)
+        return comm.allreduce(float(np.sum(c.weights * np.sum(c.points**2, axis=1) ** 1.5)),
+                              MPI.SUM)
+
+    c = cloud.deformed(u)
+    r2 = np.sum(c.points**2, axis=1)
+    gradient = cloud.pullback(u, c.weights[:, None] * 3 * np.sqrt(r2)[:, None] * c.points,
+                              r2**1.5)
+    du = dolfinx.fem.Function(u.function_space)
+    du.interpolate(lambda x: np.array([np.sin(2 * x[0] + x[1]), np.cos(x[-1]) * x[0],
+                                       x[1] - x[0] ** 2][:dim]) * 0.1)
+    slope = gradient.dot(compat.petsc_vec(du))
+    j0 = objective(u)
+    remainders = []
+    for h in (0.1, 0.05, 0.025):
+        moved = dolfinx.fem.Function(u.function_space)
+        moved.x.array[:] = u.x.array + h * du.x.array
+        remainders.append(abs(objective(moved) - j0 - h * slope))
+    rates = np.log2(np.array(remainders[:-1]) / np.array(remainders[1:]))
+    assert abs(slope) > 1e-6 and rates.min() > 1.9, (slope, remainders)
