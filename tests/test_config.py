@@ -190,3 +190,33 @@ def test_a_clamp_is_one_boundary_or_a_list_of_them(tmp_path):
     assert one.boundary.clamped == ("x1_min",)
     assert both.boundary.clamped == ("x1_min", "x1_max")
     assert list(both.to_dict()["boundary"]["clamp"]) == ["x1_min", "x1_max"]
+
+
+def test_compare_names_faces_of_the_body_and_refuses_what_it_cannot_compare():
+    """objective.compare: volume (default), boundary, a face or a list of them, resolved to
+    the body's boundaries (box: top is x3_max); each wrong use refused in one line."""
+    beam = CONFIGS / "tiny" / "beam_wave.yaml"
+    assert load(beam).objective.faces("box") is None
+    assert load(beam, ["objective.compare=boundary"]).objective.faces("box") == ()
+    assert load(beam, ["objective.compare=[top, x1_max]"]).objective.faces("box") \
+        == ("x3_max", "x1_max")
+    refused = {
+        "objective.compare=lid": "objective.compare: lid is not volume, boundary or faces of "
+                                 "a box (faces: top, bottom, x1_min, x1_max, x2_min, x2_max, "
+                                 "x3_min, x3_max)",
+        "objective.compare=[top, top]": "objective.compare: ['top', 'top'] names a face "
+                                        "twice; name each once",
+        "objective.compare=[volume, top]": "objective.compare: ['volume', 'top'] is not "
+                                           "volume, boundary or faces of a box (faces: top, "
+                                           "bottom, x1_min, x1_max, x2_min, x2_max, x3_min, "
+                                           "x3_max)",
+    }
+    for setting, message in refused.items():
+        with pytest.raises(ConfigError) as err:
+            load(beam, [setting])
+        assert err.value.problems == [message]
+    with pytest.raises(ConfigError) as err:
+        load(beam, ["objective.compare=top", "model.dim=2", "mesh.layers=2"])
+    assert err.value.problems == ["objective.compare: a 2D section model compares its volume "
+                                  "(faces of a section: not yet); remove the key or use "
+                                  "model.dim: 3"]

@@ -64,9 +64,18 @@ CASES = {
     "annulus, free frame, float32 sums asked": (CONFIGS / "disk_cone.yaml", [
         "growth.frame=free", "model.degree=1", "growth.filter_length=0.1", "mesh.size=0.1",
         "mesh.clamp_size=null", "objective.hausdorff.precision=float32"]),
+    # objective.compare: the deformed top face, a list of faces, the whole boundary; the 2D
+    # square's top edge
+    "compare the top face": (BEAM, ["objective.compare=top"]),
+    "compare two faces, free angles, hex": (BEAM, [
+        "objective.compare=[top, x1_max]", "growth.frame=free",
+        "growth.angles.initial=[0.4,1.0,0.2]", "mesh.cells=hex"]),
+    "compare the boundary": (BEAM, ["objective.compare=boundary"]),
+    "2D compare the top edge": (SQUARE, ["objective.compare=top"]),
 }
 MPI_CASES = {"eigenvalues", "eigenvalues+free angles", "2D free frame",
-             "X1-X3 section, plane stress", "axisymmetric", "stability penalty"}
+             "X1-X3 section, plane stress", "axisymmetric", "stability penalty",
+             "compare the top face", "2D compare the top edge"}
 
 
 def _params():

@@ -87,3 +87,21 @@ def test_degenerate_target_of_scene_2(tmp_path):
 def test_missing_target_is_a_config_error(tmp_path, capsys):
     assert run_cli("gradcheck", CUBE, "--out", tmp_path) == 2
     assert "target: required" in capsys.readouterr().err
+
+
+@pytest.mark.mpi
+def test_a_face_is_compared_with_the_image_of_the_same_face():
+    """objective.compare: top. The beam's top face at rest against the target map's image of
+    it: lifted by 0.01, the exact Hausdorff distance is 0.01 and the target's area the face's;
+    stretched twice along X1 (and lifted), the target's area is twice the face's (Nanson on
+    the map)."""
+    beam = CONFIGS / "tiny" / "beam_wave.yaml"  # 1 x 0.1 x 0.02
+    for stretch in (1.0, 2.0):
+        cfg = load(beam, ["objective.compare=top",
+                          f"target.map=[{stretch}*x1, x2, x3 + 0.01]"])
+        objective = Objective(cfg, ForwardModel.build(cfg).state)
+        assert objective.face is not None and objective.face.area() == pytest.approx(0.1)
+        area = MPI.COMM_WORLD.allreduce(float(objective.target.weights.sum()), MPI.SUM)
+        assert area == pytest.approx(stretch * 0.1, rel=1e-9)
+        if stretch == 1.0:
+            assert objective.exact_hausdorff() == pytest.approx(0.01, rel=1e-9)

@@ -12,6 +12,7 @@ from .expressions import CONSTANTS, COORDINATES, FUNCTIONS, Expression, Expressi
 from .reduction import SECTIONED, Section, section_of
 from .sections import (
     BOUNDARIES,
+    FACE_ALIASES,
     GEOMETRY_PARAMS,
     PAPER_ANGLE_BOUNDS_2D,
     PAPER_ANGLE_BOUNDS_3D,
@@ -110,6 +111,7 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     _check_expressions(cfg, growth, errors)
     if cfg.target is not None:
         _check_target(cfg, errors)
+    _check_compare(cfg, section, errors)
     alphas = [a for a in cfg.objective.hausdorff.alphas if a is not None]  # None: reported
     if not cfg.objective.hausdorff.alphas or any(a <= 0 for a in alphas):
         errors.append("objective.hausdorff.alpha: give a positive number or a list of them, "
@@ -325,6 +327,31 @@ def _check_expressions(cfg: Config, growth: GrowthConfig, errors: list[str]) -> 
                     Expression(value, names)
                 except ExpressionError as err:
                     errors.append(f"{key}[{i}]: {err}")
+
+
+def _check_compare(cfg: Config, section: Section, errors: list[str]) -> None:
+    """objective.compare: volume, boundary, or faces of this body; a face is compared with a
+    target map's image of the same face (files: not yet), on a 3D or plane body."""
+    compare = cfg.objective.compare
+    names = (compare,) if isinstance(compare, str) else tuple(compare)
+    kind = cfg.geometry.kind
+    faces = cfg.objective.faces(kind)
+    if faces is None:
+        return
+    allowed = (*FACE_ALIASES.get(kind, {}), *BOUNDARIES[kind])
+    wrong = [n for n in names if n not in allowed] if faces else []
+    if not names or wrong or (len(names) > 1 and not set(names).isdisjoint({"volume",
+                                                                             "boundary"})):
+        errors.append(f"objective.compare: {list(names) if len(names) != 1 else names[0]} is "
+                      f"not volume, boundary or faces of a {kind} (faces: {', '.join(allowed)})")
+    elif len(set(faces)) < len(faces):
+        errors.append(f"objective.compare: {list(names)} names a face twice; name each once")
+    if section.reduced:
+        errors.append("objective.compare: a 2D section model compares its volume (faces of "
+                      "a section: not yet); remove the key or use model.dim: 3")
+    if cfg.target is not None and cfg.target.map is None:
+        errors.append("objective.compare: a face is compared with a target.map's image of it "
+                      "(a target mesh or surface file: not yet); use compare: volume")
 
 
 def _check_target(cfg: Config, errors: list[str]) -> None:

@@ -27,6 +27,13 @@ BOUNDARIES: dict[str, tuple[str, ...]] = {
     "rectangle": ("x1_min", "x1_max", "x2_min", "x2_max"),
     "cube": ("x1_min", "x1_max", "x2_min", "x2_max", "x3_min", "x3_max"),
 }
+# objective.compare's face names beside the boundaries' own (shared/CONTRACT.md)
+FACE_ALIASES: dict[str, dict[str, str]] = {
+    "box": {"top": "x3_max", "bottom": "x3_min"},
+    "annulus": {"top": "x3_max", "bottom": "x3_min"},
+    "rectangle": {"top": "x2_max", "bottom": "x2_min"},
+    "cube": {"top": "x3_max", "bottom": "x3_min"},
+}
 PLANES = ("x1x2", "x1x3")
 REDUCTIONS = ("plane_strain", "plane_stress", "axisymmetric")
 LAYERED = ("box", "tube", "annulus", "cylinder_shell")  # bodies with a thin direction
@@ -256,6 +263,23 @@ class ComplexityConfig:
 class ObjectiveConfig:
     hausdorff: HausdorffConfig = option("smooth Hausdorff distance rho_H (2.9)", HausdorffConfig())
     complexity: ComplexityConfig = option("complexity terms", ComplexityConfig())
+    compare: str | tuple[str, ...] = option(
+        "what of the deformed body is compared with the target: volume (the whole body, "
+        "its volume measure), boundary (its whole surface, with its area measure), or a "
+        "named face or a list of them (box and cube: top, bottom and every boundary name; "
+        "tube and cylinder_shell: outer, inner; annulus: top, bottom; rectangle: top, "
+        "bottom), each area pushed forward exactly (da = |cof F N| dA)", "volume")
+
+    def faces(self, kind: str) -> tuple[str, ...] | None:
+        """The compared boundaries' names (() for the whole boundary, None for the
+        volume), face names resolved for a body of ``kind``."""
+        names = (self.compare,) if isinstance(self.compare, str) else tuple(self.compare)
+        if names == ("volume",):
+            return None
+        if names == ("boundary",):
+            return ()
+        aliases = FACE_ALIASES.get(kind, {})
+        return tuple(aliases.get(n, n) for n in names)
 
 
 @dataclass(frozen=True)

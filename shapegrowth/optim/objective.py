@@ -18,6 +18,7 @@ from ..config import Config
 from ..physics.state import StateProblem
 from ..shape.clouds import QuadratureCloud, assemble
 from ..shape.divergence import ShapeDivergence
+from ..shape.facet_clouds import FacetCloud, boundary_facets
 from ..shape.hausdorff import PointCloud, SmoothHausdorff, exact_hausdorff
 from ..shape.targets import target_cloud
 from .complexity import complexity_density
@@ -44,7 +45,12 @@ class Objective:
         self.comm = mesh.comm
         self.state = state
         self.cloud = QuadratureCloud(mesh, h.quadrature_degree, state.weight)
-        self.target = target_cloud(cfg, self.cloud, self.comm)
+        faces = cfg.objective.faces(cfg.geometry.kind)
+        # objective.compare: a face (or the whole boundary) as a cloud of its facets
+        self.face = None if faces is None else FacetCloud(
+            state.V, _facets(state, faces), h.quadrature_degree)
+        self.target = target_cloud(cfg, self.cloud if self.face is None else self.face,
+                                   self.comm)
         self.target_size = self.target.extent(self.comm)  # of the sample points, as rho_H sees it
         self.divergence = ShapeDivergence(
             SmoothHausdorff(alpha=h.alphas[0], beta=h.beta, gamma=h.gamma, phi=h.phi,
@@ -80,6 +86,8 @@ class Objective:
         return self.divergence.target_self(self.target, self.comm)
 
     def deformed(self) -> PointCloud:
+        if self.face is not None:
+            return self.face.deformed(self.state.u)
         return self._deformed()
 
     def evaluate(self, gradient: bool) -> tuple[ObjectiveValue, PETSc.Vec | None]:
@@ -95,6 +103,10 @@ class Objective:
                                pair.hausdorff, result.value, self.alpha)
         if not gradient:
             return value, None
+        if self.face is not None:
+            assert result.grad_points is not None and result.grad_weights is not None
+            return value, self.face.pullback(self.state.u, result.grad_points,
+                                             result.grad_weights)
         self._fill(result.grad_points, result.grad_weights)
         return value, assemble(self._pullback)
 
@@ -109,3 +121,13 @@ class Objective:
 
     def relative_error(self) -> float:
         return self.exact_hausdorff() / self.target_size if self.target_size > 0 else np.inf
+
+
+def _facets(state: StateProblem, faces: tuple[str, ...]) -> np.ndarray:
+    """The local facets of the named boundaries (all of the boundary for ())."""
+    domain = state.domain
+    if not faces:
+        return boundary_facets(domain.mesh)
+    tags = domain.facet_tags
+    return np.unique(np.concatenate([tags.indices[tags.values == domain.boundaries[name]]
+                                     for name in faces]))

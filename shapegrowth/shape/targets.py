@@ -26,14 +26,16 @@ from mpi4py import MPI
 from .. import compat
 from ..config import Config, ConfigError, TransformConfig, resolved
 from ..config.expressions import evaluate
-from ..config.maps import map_jacobian
+from ..config.maps import map_jacobian, target_gradient
 from .clouds import QuadratureCloud
+from .facet_clouds import FacetCloud
 from .hausdorff import PointCloud
 from .placement import affine, principal_alignment
 from .surface_files import filled_surface
 
 
-def target_cloud(cfg: Config, cloud: QuadratureCloud, comm: MPI.Comm) -> PointCloud:
+def target_cloud(cfg: Config, cloud: QuadratureCloud | FacetCloud,
+                 comm: MPI.Comm) -> PointCloud:
     target = cfg.target
     if target is None:
         raise ConfigError(["target: required for this command (give map: or mesh:)"])
@@ -49,12 +51,31 @@ def target_cloud(cfg: Config, cloud: QuadratureCloud, comm: MPI.Comm) -> PointCl
             raise ConfigError(["target.map: the map is not finite everywhere on the body"])
         if section.reduced:
             points = section.in_plane(points)
+        if isinstance(cloud, FacetCloud):  # the face's image, its area measure (Nanson)
+            return PointCloud(points, cloud.w * mapped_area(target_gradient(cfg, X), cloud.N))
         return PointCloud(points, cloud.w * map_jacobian(cfg, X, target.weights))
+    if isinstance(cloud, FacetCloud):  # the config's checks say so first
+        raise ConfigError(["objective.compare: a face is compared with a target.map only"])
     if target.surface is not None:
         nodes, cells = filled_surface(Path(target.surface))
     else:
         nodes, cells = _read_simplices(Path(resolved(target.mesh)), cfg.dim)
     return file_cloud(nodes, cells, cloud, target.transform, comm)
+
+
+def mapped_area(grad: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """|cof(G) N|: the area of a face element of unit normal N under a map of gradient G
+    (n, d, d), as |G t1 x G t2| (3D) or |G t| (2D) with t the unit tangents of N, which holds
+    where G has no volume too (scenes 2 and 5's maps)."""
+    if normals.shape[1] == 2:
+        t = np.column_stack([-normals[:, 1], normals[:, 0]])
+        return np.linalg.norm(np.einsum("nij,nj->ni", grad, t), axis=1)
+    helper = np.where(np.abs(normals[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t1 = np.cross(normals, helper)
+    t1 /= np.linalg.norm(t1, axis=1)[:, None]
+    t2 = np.cross(normals, t1)
+    return np.linalg.norm(np.cross(np.einsum("nij,nj->ni", grad, t1),
+                                   np.einsum("nij,nj->ni", grad, t2)), axis=1)
 
 
 def file_cloud(nodes: np.ndarray, cells: np.ndarray, cloud: QuadratureCloud,
