@@ -355,3 +355,65 @@ def test_a_surface_target_needs_a_3d_model(tmp_path):
     write_ascii_stl(stl, box())
     with pytest.raises(ConfigError, match=r"target.surface: a surface bounds a 3D solid"):
         load(CONFIGS / "tiny" / "square_disk.yaml", [f"target.surface={stl}", "target.map=null"])
+
+
+def _top_face_stl(path, lift: float, scale: float = 1.0):
+    """The tiny beam's top face (its mesh's own triangles), lifted by ``lift`` and scaled,
+    as an STL; the config it belongs to."""
+    from shapegrowth import compat
+    from shapegrowth.config import load
+    from shapegrowth.physics.model import ForwardModel
+    from shapegrowth.shape.surface_files import write_stl
+
+    cfg = load(CONFIGS / "tiny" / "beam_wave.yaml", ["objective.compare=top"])
+    domain = ForwardModel.build(cfg).domain
+    mesh = domain.mesh
+    top = domain.facet_tags.indices[domain.facet_tags.values == domain.boundaries["x3_max"]]
+    nodes = compat.entities_to_geometry(mesh, 2, top)[:, :3]  # the P1 vertices
+    points = mesh.geometry.x.copy()
+    points[:, 2] += lift
+    write_stl(path, points * scale, nodes)
+    return path
+
+
+def test_a_face_is_compared_with_an_open_surface_from_a_file(tmp_path):
+    """objective.compare: top against an open STL of the same face lifted by 0.01 (in
+    millimetres, scaled back by target.transform): the exact Hausdorff distance is the
+    lift, the target's area the face's; translated back, the distance vanishes."""
+    from shapegrowth.config import load
+    from shapegrowth.optim.objective import Objective
+    from shapegrowth.physics.model import ForwardModel
+
+    stl = _top_face_stl(tmp_path / "top.stl", 0.01, scale=1000.0)
+    for translation, distance in ((0.0, 0.01), (-0.01, 0.0)):
+        cfg = load(CONFIGS / "tiny" / "beam_wave.yaml", [
+            "objective.compare=top", "target.map=null", f"target.surface={stl}",
+            f"target.transform={{scale: 0.001, translation: [0, 0, {translation}]}}"])
+        objective = Objective(cfg, ForwardModel.build(cfg).state)
+        assert objective.target.weights.sum() == pytest.approx(0.1, rel=1e-6)
+        assert objective.exact_hausdorff() == pytest.approx(distance, abs=1e-8)
+
+
+def test_an_open_surface_is_refused_where_it_cannot_be_compared(tmp_path):
+    """An open surface against the volume; a flat triangle; a triangle given twice."""
+    from shapegrowth.config import load
+    from shapegrowth.optim.objective import Objective
+    from shapegrowth.physics.model import ForwardModel
+    from shapegrowth.shape.surface_files import write_stl
+
+    stl = _top_face_stl(tmp_path / "top.stl", 0.01)
+    cases = {"volume": stl}
+    square = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [2, 0, 0]], dtype=float)
+    write_stl(tmp_path / "flat.stl", square, np.array([[0, 1, 2], [1, 3, 2], [0, 1, 4]]))
+    cases["flat"] = tmp_path / "flat.stl"
+    write_stl(tmp_path / "twice.stl", square, np.array([[0, 1, 2], [1, 3, 2], [2, 1, 0]]))
+    cases["twice"] = tmp_path / "twice.stl"
+    expected = {"volume": "is not closed: ", "flat": "has 1 triangles without area",
+                "twice": "overlaps itself: a triangle is given twice"}
+    for name, path in cases.items():
+        compare = "volume" if name == "volume" else "top"
+        cfg = load(CONFIGS / "tiny" / "beam_wave.yaml", [
+            f"objective.compare={compare}", "target.map=null", f"target.surface={path}"])
+        with pytest.raises(ConfigError) as err:
+            Objective(cfg, ForwardModel.build(cfg).state)
+        assert len(err.value.problems) == 1 and expected[name] in err.value.problems[0]

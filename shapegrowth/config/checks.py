@@ -349,9 +349,9 @@ def _check_compare(cfg: Config, section: Section, errors: list[str]) -> None:
     if section.reduced:
         errors.append("objective.compare: a 2D section model compares its volume (faces of "
                       "a section: not yet); remove the key or use model.dim: 3")
-    if cfg.target is not None and cfg.target.map is None:
+    if cfg.target is not None and cfg.target.mesh is not None:
         errors.append("objective.compare: a face is compared with a target.map's image of it "
-                      "(a target mesh or surface file: not yet); use compare: volume")
+                      "or with a target.surface, not with a volume mesh; use compare: volume")
 
 
 def _check_target(cfg: Config, errors: list[str]) -> None:

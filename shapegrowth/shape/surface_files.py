@@ -1,10 +1,13 @@
-"""Closed triangulated surfaces from files (STL, OBJ, PLY, gmsh .msh), filled into volumes.
+"""Triangulated surfaces from files (STL, OBJ, PLY, gmsh .msh): filled into volumes, or
+taken as surfaces.
 
-A target given as a surface (``target.surface``) is a solid: rho_H (2.9) compares the
-deformed body's volume measure with the target's, so the closed surface is filled with
-tetrahedra by gmsh and measured like a volume mesh.  An open surface is refused rather
-than measured with area weights: a surface cloud against a volume cloud does not vanish
-when the shapes coincide, so the optimum would not be the target.
+A target given as a surface (``target.surface``) compared with the body's volume
+(``objective.compare: volume``) is a solid: rho_H (2.9) compares the deformed body's volume
+measure with the target's, so the closed surface is filled with tetrahedra by gmsh and
+measured like a volume mesh.  An open surface is refused there: a surface cloud against a
+volume cloud does not vanish when the shapes coincide, so the optimum would not be the
+target.  Compared with a face of the body (``objective.compare: top``, ``boundary``, ...),
+a surface, open or closed, is sampled with its area measure (:func:`surface_triangles`).
 
 The filled polyhedron's volume, centroid and second moments are determined by the
 surface alone (the divergence theorem), whatever tetrahedra gmsh chooses; the fill is
@@ -218,6 +221,27 @@ def _read_msh_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 # ---- closed surfaces and their fill ----------------------------------------------------------
 
+def surface_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The points and triangles of a surface, open or closed, to be sampled with its area
+    measure (objective.compare: a face): refused where a triangle has no area or where the
+    surface overlaps itself (a triangle twice, or an edge of more than two triangles)."""
+    surface = read_surface(path)
+    p, t = surface.points, surface.triangles
+    areas = np.linalg.norm(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]), axis=1)
+    flat = int(np.sum(areas <= 1e-12 * areas.max())) if areas.size else 0
+    if flat:
+        raise _fail(path, f"has {flat} triangles without area; remove them (a degenerate "
+                    "triangle has no normal)")
+    if len(np.unique(np.sort(t, axis=1), axis=0)) < len(t):
+        raise _fail(path, "overlaps itself: a triangle is given twice; give each once")
+    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    if np.any(counts > 2):
+        raise _fail(path, f"overlaps itself: {int(np.sum(counts > 2))} edges bound more than "
+                    "two triangles; give one surface")
+    return p, t
+
+
 def check_closed(surface: TriangleSurface, path: Path) -> None:
     """Every edge bounds exactly two triangles (a closed, manifold surface)."""
     t = surface.triangles
@@ -226,7 +250,8 @@ def check_closed(surface: TriangleSurface, path: Path) -> None:
     open_edges, shared = int(np.sum(counts == 1)), int(np.sum(counts > 2))
     if open_edges:
         raise _fail(path, f"is not closed: {open_edges} edges bound one triangle only; close "
-                    "the surface (a solid's boundary), or give a volume mesh as target.mesh")
+                    "the surface (a solid's boundary), give a volume mesh as target.mesh, or "
+                    "compare a face of the body with it (objective.compare: top, boundary, ...)")
     if shared:
         raise _fail(path, f"is not a manifold: {shared} edges bound more than two triangles; "
                     "give one closed surface per solid")

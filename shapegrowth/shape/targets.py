@@ -31,7 +31,7 @@ from .clouds import QuadratureCloud
 from .facet_clouds import FacetCloud
 from .hausdorff import PointCloud
 from .placement import affine, principal_alignment
-from .surface_files import filled_surface
+from .surface_files import filled_surface, surface_triangles
 
 
 def target_cloud(cfg: Config, cloud: QuadratureCloud | FacetCloud,
@@ -54,8 +54,12 @@ def target_cloud(cfg: Config, cloud: QuadratureCloud | FacetCloud,
         if isinstance(cloud, FacetCloud):  # the face's image, its area measure (Nanson)
             return PointCloud(points, cloud.w * mapped_area(target_gradient(cfg, X), cloud.N))
         return PointCloud(points, cloud.w * map_jacobian(cfg, X, target.weights))
-    if isinstance(cloud, FacetCloud):  # the config's checks say so first
-        raise ConfigError(["objective.compare: a face is compared with a target.map only"])
+    if isinstance(cloud, FacetCloud):  # a face against a surface, open or closed
+        if target.surface is None:  # the config's checks say so first
+            raise ConfigError(["objective.compare: a face is compared with a target.map or "
+                               "a target.surface"])
+        nodes, cells = surface_triangles(Path(target.surface))
+        return file_cloud(nodes, cells, cloud, target.transform, comm)
     if target.surface is not None:
         nodes, cells = filled_surface(Path(target.surface))
     else:
@@ -78,7 +82,7 @@ def mapped_area(grad: np.ndarray, normals: np.ndarray) -> np.ndarray:
                                    np.einsum("nij,nj->ni", grad, t2)), axis=1)
 
 
-def file_cloud(nodes: np.ndarray, cells: np.ndarray, cloud: QuadratureCloud,
+def file_cloud(nodes: np.ndarray, cells: np.ndarray, cloud: QuadratureCloud | FacetCloud,
                transform: TransformConfig, comm: MPI.Comm) -> PointCloud:
     """The cloud of a file's simplices (whole on every rank) placed by ``transform``: each
     rank takes a contiguous share of the cells, sampled at ``cloud``'s degree."""
@@ -96,13 +100,18 @@ def file_cloud(nodes: np.ndarray, cells: np.ndarray, cloud: QuadratureCloud,
 
 
 def simplex_cloud(nodes: np.ndarray, cells: np.ndarray, degree: int) -> PointCloud:
-    """Quadrature points and weights of simplices (n, dim + 1) on ``nodes`` (n, dim)."""
-    dim = nodes.shape[1]
-    ref_points, ref_weights = compat.simplex_quadrature(dim, degree)
+    """Quadrature points and weights of simplices (n, k + 1) on ``nodes`` (n, dim): volumes
+    (k = dim) or, for the triangles of a surface in 3D (k < dim), their areas."""
+    dim, k = nodes.shape[1], cells.shape[1] - 1
+    ref_points, ref_weights = compat.simplex_quadrature(k, degree)
     v0 = nodes[cells[:, 0]]
-    jac = np.stack([nodes[cells[:, k + 1]] - v0 for k in range(dim)], axis=2)  # (n, dim, dim)
+    jac = np.stack([nodes[cells[:, j + 1]] - v0 for j in range(k)], axis=2)  # (n, dim, k)
     points = v0[:, None, :] + np.einsum("cij,qj->cqi", jac, ref_points)
-    weights = np.abs(np.linalg.det(jac))[:, None] * ref_weights[None, :]
+    if k == dim:
+        measure = np.abs(np.linalg.det(jac))
+    else:  # the Gram determinant
+        measure = np.sqrt(np.abs(np.linalg.det(np.einsum("cik,cil->ckl", jac, jac))))
+    weights = measure[:, None] * ref_weights[None, :]
     return PointCloud(points.reshape(-1, dim), weights.ravel())
 
 
