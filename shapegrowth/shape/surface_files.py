@@ -349,8 +349,9 @@ def fill(surface: TriangleSurface, path: Path) -> tuple[np.ndarray, np.ndarray]:
     return nodes, tets
 
 
-def write_stl(path: Path, points: np.ndarray, triangles: np.ndarray) -> None:
+def write_stl(path: Path | str, points: np.ndarray, triangles: np.ndarray) -> None:
     """A binary STL of the triangles (outward normals where the surface is oriented so)."""
+    path = Path(path)
     p = np.asarray(points, dtype=float)[np.asarray(triangles)]
     normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
