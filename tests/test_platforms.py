@@ -19,6 +19,20 @@ def _run(command: list[str], env: dict[str, str]) -> subprocess.CompletedProcess
     return subprocess.run(command, env=env, capture_output=True, text=True, timeout=60)
 
 
+def _without_debootstrap(script: Path, tmp_path: Path) -> subprocess.CompletedProcess:
+    """``script`` run with a PATH of the shell's tools but neither debootstrap nor apt-get,
+    and no cached Debian 13 root."""
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    for tool in ("bash", "id", "dirname", "chroot"):
+        found = shutil.which(tool)
+        assert found, tool
+        (bin_dir / tool).symlink_to(found)
+    env = {"PATH": str(bin_dir), "HOME": str(tmp_path),
+           "SHAPEGROWTH_DEBIAN13_ROOT": str(tmp_path / "no-root-here")}
+    return _run([str(bin_dir / "bash"), str(script)], env)
+
+
 @pytest.mark.skipif(os.geteuid() != 0 or shutil.which("setpriv") is None,
                     reason="needs root and setpriv to run the script as another user")
 def test_the_debian13_leg_skips_with_one_line_when_not_root():
@@ -44,15 +58,7 @@ def test_the_debian13_leg_skips_with_one_line_when_not_root():
 @pytest.mark.skipif(os.geteuid() != 0, reason="the check after the root check")
 def test_the_debian13_leg_skips_with_one_line_without_debootstrap(tmp_path):
     """A PATH with the shell's tools but neither debootstrap nor apt-get, and no cached root."""
-    bin_dir = tmp_path / "bin"
-    bin_dir.mkdir()
-    for tool in ("bash", "id", "dirname", "chroot"):
-        found = shutil.which(tool)
-        assert found, tool
-        (bin_dir / tool).symlink_to(found)
-    env = {"PATH": str(bin_dir), "HOME": str(tmp_path),
-           "SHAPEGROWTH_DEBIAN13_ROOT": str(tmp_path / "no-root-here")}
-    result = _run([str(bin_dir / "bash"), str(SCRIPT)], env)
+    result = _without_debootstrap(SCRIPT, tmp_path)
     assert result.returncode == 0
     assert result.stdout.strip() == ("test-debian13: skipped: no debootstrap, and no apt-get "
                                      "to install it")
@@ -71,15 +77,7 @@ def test_only_compat_asks_for_the_dolfinx_version():
 def test_the_dolfinx011_leg_skips_with_one_line_without_a_debian13_root(tmp_path):
     """The third platform's leg lives in the second's root: where that cannot be built (no
     debootstrap here), the leg says so after the second's own line, and succeeds."""
-    bin_dir = tmp_path / "bin"
-    bin_dir.mkdir()
-    for tool in ("bash", "id", "dirname", "chroot"):
-        found = shutil.which(tool)
-        assert found, tool
-        (bin_dir / tool).symlink_to(found)
-    env = {"PATH": str(bin_dir), "HOME": str(tmp_path),
-           "SHAPEGROWTH_DEBIAN13_ROOT": str(tmp_path / "no-root-here")}
-    result = _run([str(bin_dir / "bash"), str(ROOT / "scripts" / "dolfinx011.sh")], env)
+    result = _without_debootstrap(ROOT / "scripts" / "dolfinx011.sh", tmp_path)
     assert result.returncode == 0
     assert result.stdout.strip().splitlines()[-1] == (
         "test-dolfinx011: skipped: no Debian 13 root (make test-debian13 says why)")
