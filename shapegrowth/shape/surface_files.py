@@ -228,7 +228,7 @@ def surface_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
     surface = read_surface(path)
     p, t = surface.points, surface.triangles
     areas = np.linalg.norm(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]), axis=1)
-    flat = int(np.sum(areas <= 1e-12 * areas.max())) if areas.size else 0
+    flat = int(np.sum(areas <= 1e-12 * np.max(areas))) if areas.size else 0
     if flat:
         raise _fail(path, f"has {flat} triangles without area; remove them (a degenerate "
                     "triangle has no normal)")
