@@ -8,8 +8,8 @@ test-dolfinx011``).  Every difference is a branch in this module on ``AT_LEAST_0
 (where only 0.11 was seen to differ), each with a comment naming the release; the rest of
 the package calls these helpers for meshes from gmsh, function spaces, PETSc vectors of
 functions, boundary conditions, expression evaluation, point evaluation and XDMF output.
-The releases between (0.6-0.8, 0.10) are not tested.  The wheels' other differences
-(h5py's own libhdf5, NLopt 2.11's exceptions) are here too.
+The releases between (0.6-0.8, 0.10) are not tested.  The wheel's own libhdf5, which
+h5py must not bind to, is handled here too.
 """
 
 from __future__ import annotations
@@ -210,14 +210,6 @@ def constant(mesh, value: float) -> dolfinx.fem.Constant:
     from petsc4py import PETSc
 
     return dolfinx.fem.Constant(mesh, np.asarray(value, dtype=PETSc.ScalarType)[()])
-
-
-def nlopt_stops(nlopt) -> tuple[type[BaseException], ...]:
-    """What ``opt.optimize`` raises when a callback stops it or L-BFGS gives up: NLopt 2.7's
-    ForcedStop and RuntimeError; NLopt 2.11 (the pip wheel beside dolfinx 0.11) raises its
-    own ``nlopt.exception`` classes, which are not RuntimeErrors."""
-    extra = getattr(nlopt, "exception", None)
-    return (nlopt.ForcedStop, RuntimeError, *([extra] if isinstance(extra, type) else []))
 
 
 def geometry_nodes(mesh) -> np.ndarray:

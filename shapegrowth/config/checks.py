@@ -331,9 +331,9 @@ def _check_expressions(cfg: Config, growth: GrowthConfig, errors: list[str]) -> 
 
 def _check_compare(cfg: Config, section: Section, errors: list[str]) -> None:
     """objective.compare: volume, boundary, or faces of this body; a face is compared with a
-    target map's image of the same face (files: not yet), on a 3D or plane body."""
-    compare = cfg.objective.compare
-    names = (compare,) if isinstance(compare, str) else tuple(compare)
+    target map's image of the same face or with a target surface, on a 3D or plane body
+    (not on a 2D section yet)."""
+    names = cfg.objective.compared
     kind = cfg.geometry.kind
     faces = cfg.objective.faces(kind)
     if faces is None:

@@ -270,10 +270,15 @@ class ObjectiveConfig:
         "tube and cylinder_shell: outer, inner; annulus: top, bottom; rectangle: top, "
         "bottom), each area pushed forward exactly (da = |cof F N| dA)", "volume")
 
+    @property
+    def compared(self) -> tuple[str, ...]:
+        """objective.compare as given, one name or a list of them."""
+        return (self.compare,) if isinstance(self.compare, str) else tuple(self.compare)
+
     def faces(self, kind: str) -> tuple[str, ...] | None:
         """The compared boundaries' names (() for the whole boundary, None for the
         volume), face names resolved for a body of ``kind``."""
-        names = (self.compare,) if isinstance(self.compare, str) else tuple(self.compare)
+        names = self.compared
         if names == ("volume",):
             return None
         if names == ("boundary",):

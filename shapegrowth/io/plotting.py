@@ -8,10 +8,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import dolfinx.fem
-import dolfinx.mesh
 import numpy as np
 
 from .. import compat
+from ..shape.facet_clouds import boundary_facets
 
 
 @dataclass
@@ -30,9 +30,7 @@ def surface(u: dolfinx.fem.Function, field: dolfinx.fem.Function | None = None) 
     mesh = u.function_space.mesh
     comm, tdim = mesh.comm, mesh.topology.dim
     if tdim == 3:  # the boundary facets by their vertices
-        mesh.topology.create_connectivity(tdim - 1, tdim)
-        entities = dolfinx.mesh.exterior_facet_indices(mesh.topology)
-        nodes = _triangles(compat.entities_to_geometry(mesh, tdim - 1, entities))
+        nodes = _triangles(compat.entities_to_geometry(mesh, tdim - 1, boundary_facets(mesh)))
     else:  # the cells by all their geometry nodes (a 9-node quadrilateral follows its curve)
         owned = mesh.topology.index_map(tdim).size_local
         nodes = _triangles(compat.geometry_nodes(mesh)[:owned])

@@ -48,7 +48,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .. import compat
 from ..errors import AdjointSolveError, StateSolveError
 from ..status import Outcome
 from .interface import Callback, DesignProblem, DriverResult, GlobalVector, Record, Step
@@ -288,7 +287,7 @@ class Driver:
             try:
                 x = opt.optimize(np.clip(x, box_lo, box_hi))
                 code = opt.last_optimize_result()
-            except compat.nlopt_stops(nlopt):
+            except _nlopt_stops(nlopt):
                 # a stop from the callback; L-BFGS reports ours as a generic "nlopt failure"
                 if not self._over_budget:
                     if self.failure is not None:
@@ -312,3 +311,11 @@ class Driver:
             if len(self.history) == start:
                 break
         return x, code
+
+
+def _nlopt_stops(nlopt) -> tuple[type[BaseException], ...]:
+    """What ``opt.optimize`` raises when a callback stops it or L-BFGS gives up: NLopt 2.7's
+    ForcedStop and RuntimeError; NLopt 2.11 (the pip wheel beside dolfinx 0.11) raises its
+    own ``nlopt.exception`` classes, which are not RuntimeErrors."""
+    extra = getattr(nlopt, "exception", None)
+    return (nlopt.ForcedStop, RuntimeError, *([extra] if isinstance(extra, type) else []))

@@ -44,20 +44,22 @@ class Objective:
         mesh = state.domain.mesh
         self.comm = mesh.comm
         self.state = state
-        self.cloud = QuadratureCloud(mesh, h.quadrature_degree, state.weight)
         faces = cfg.objective.faces(cfg.geometry.kind)
-        # objective.compare: a face (or the whole boundary) as a cloud of its facets
-        self.face = None if faces is None else FacetCloud(
-            state.V, _facets(state, faces), h.quadrature_degree)
-        self.target = target_cloud(cfg, self.cloud if self.face is None else self.face,
-                                   self.comm)
+        # the compared part: the body's volume, or (objective.compare) a face or the whole
+        # boundary as a cloud of its facets
+        self.cloud: QuadratureCloud | FacetCloud
+        if faces is None:
+            self.cloud = QuadratureCloud(mesh, h.quadrature_degree, state.weight)
+            ratio = state.volume_ratio() if cfg.section.reduced else None  # None: det F
+            self._deformed = self.cloud.deformed_factory(state.u, ratio)
+            self._pullback, self._fill = self.cloud.pullback_form(state.u, ratio)
+        else:
+            self.cloud = FacetCloud(state.V, _facets(state, faces), h.quadrature_degree)
+        self.target = target_cloud(cfg, self.cloud, self.comm)
         self.target_size = self.target.extent(self.comm)  # of the sample points, as rho_H sees it
         self.divergence = ShapeDivergence(
             SmoothHausdorff(alpha=h.alphas[0], beta=h.beta, gamma=h.gamma, phi=h.phi,
                             cutoff=h.cutoff, taper=h.taper, precision=h.precision), h.form)
-        ratio = state.volume_ratio() if cfg.section.reduced else None  # None: det F
-        self._deformed = self.cloud.deformed_factory(state.u, ratio)
-        self._pullback, self._fill = self.cloud.pullback_form(state.u, ratio)
         density = complexity_density(cfg.objective.complexity, state.applied)
         self._complexity = None
         if density is not None:
@@ -85,9 +87,14 @@ class Objective:
             return 0.0
         return self.divergence.target_self(self.target, self.comm)
 
+    @property
+    def face(self) -> FacetCloud | None:
+        """The compared face's cloud (None where the volume is compared)."""
+        return self.cloud if isinstance(self.cloud, FacetCloud) else None
+
     def deformed(self) -> PointCloud:
-        if self.face is not None:
-            return self.face.deformed(self.state.u)
+        if isinstance(self.cloud, FacetCloud):
+            return self.cloud.deformed(self.state.u)
         return self._deformed()
 
     def evaluate(self, gradient: bool) -> tuple[ObjectiveValue, PETSc.Vec | None]:
@@ -103,10 +110,10 @@ class Objective:
                                pair.hausdorff, result.value, self.alpha)
         if not gradient:
             return value, None
-        if self.face is not None:
+        if isinstance(self.cloud, FacetCloud):
             assert result.grad_points is not None and result.grad_weights is not None
-            return value, self.face.pullback(self.state.u, result.grad_points,
-                                             result.grad_weights)
+            return value, self.cloud.pullback(self.state.u, result.grad_points,
+                                              result.grad_weights)
         self._fill(result.grad_points, result.grad_weights)
         return value, assemble(self._pullback)
 
@@ -126,8 +133,4 @@ class Objective:
 def _facets(state: StateProblem, faces: tuple[str, ...]) -> np.ndarray:
     """The local facets of the named boundaries (all of the boundary for ())."""
     domain = state.domain
-    if not faces:
-        return boundary_facets(domain.mesh)
-    tags = domain.facet_tags
-    return np.unique(np.concatenate([tags.indices[tags.values == domain.boundaries[name]]
-                                     for name in faces]))
+    return domain.facets(faces) if faces else boundary_facets(domain.mesh)

@@ -33,8 +33,7 @@ def clamp_conditions(V: Any, domain: Domain, clamp: str | tuple[str, ...],
     if names == ("rigid",):
         return _rigid_pins(V, mesh, axisymmetric)
     fdim = mesh.topology.dim - 1
-    facets = np.unique(np.concatenate(
-        [domain.facet_tags.find(domain.boundaries[name]) for name in names])).astype(np.int32)
+    facets = domain.facets(names)
     mesh.topology.create_connectivity(fdim, mesh.topology.dim)  # 0.9 does not create it
     dofs = dolfinx.fem.locate_dofs_topological(V, fdim, facets)
     zero = np.zeros(mesh.geometry.dim, dtype=np.float64)

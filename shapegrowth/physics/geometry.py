@@ -39,6 +39,11 @@ class Domain:
     def dim(self) -> int:
         return self.mesh.topology.dim
 
+    def facets(self, names: tuple[str, ...]) -> np.ndarray:
+        """The local facets of the named boundaries, sorted, each once."""
+        return np.unique(np.concatenate(
+            [self.facet_tags.find(self.boundaries[name]) for name in names])).astype(np.int32)
+
 
 def _params(cfg: Config) -> dict[str, float | int | str]:
     geo = cfg.geometry

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import basix
 import dolfinx.fem
+import dolfinx.mesh
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -36,8 +37,8 @@ from petsc4py import PETSc
 from .. import compat
 from .hausdorff import PointCloud
 
-_FACET = {"interval": "point", "triangle": "interval", "quadrilateral": "interval",
-          "tetrahedron": "triangle", "hexahedron": "quadrilateral"}
+_FACET = {"triangle": "interval", "quadrilateral": "interval", "tetrahedron": "triangle",
+          "hexahedron": "quadrilateral"}
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,19 @@ class _Group:
     gphi: np.ndarray
     normal: np.ndarray
     weights: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Kinematics:
+    """One group's displacement u, F^-1, det F and cof F N at its points (c, q, ...), and
+    its rows of the cloud."""
+
+    u: np.ndarray
+    N: np.ndarray
+    Finv: np.ndarray
+    detF: np.ndarray
+    cofN: np.ndarray
+    rows: slice
 
 
 def _element(cell: basix.CellType, degree: int):
@@ -93,11 +107,14 @@ class FacetCloud:
         element = _element(cell, compat.space_degree(space))
         geometry = _element(cell, compat.geometry_degree(mesh))
         nodes = compat.geometry_nodes(mesh)
+        # each facet's (one) cell, and which of the cell's facets it is
+        cell_of = np.array([f_to_c.links(f)[0] for f in facets], dtype=np.int32)
+        local = np.array([list(c_to_f.links(c)).index(f) for f, c in zip(facets, cell_of)],
+                         dtype=np.int32)
         # per local facet: its cells, the tabulations at its points, its reference normal
         self.groups: list[_Group] = []
         for f, vertices in enumerate(basix.topology(cell)[fdim]):
-            cells = np.array([c for c in map(int, facets_cells(facets, f_to_c, c_to_f, f))
-                              if c < owned], dtype=np.int32)
+            cells = cell_of[(local == f) & (cell_of < owned)]
             if len(cells) == 0:
                 continue
             v = ref_x[vertices]
@@ -105,12 +122,10 @@ class FacetCloud:
             points = v[0] + qpoints @ tangents.T
             if fdim == 2:
                 normal = np.cross(tangents[:, 0], tangents[:, 1])
-            elif fdim == 1:
-                normal = np.array([tangents[1, 0], -tangents[0, 0]])
             else:
-                normal = v[0] - centre
-            area = np.linalg.norm(normal) if fdim else 1.0  # reference area per xi area
-            normal = normal / np.linalg.norm(normal)
+                normal = np.array([tangents[1, 0], -tangents[0, 0]])
+            area = np.linalg.norm(normal)  # reference area per xi area
+            normal = normal / area
             if normal @ (points.mean(axis=0) - centre) < 0:
                 normal = -normal
             phi = element.tabulate(1, points)[:, :, :, 0]  # (1 + tdim, nq, ndofs)
@@ -153,31 +168,30 @@ class FacetCloud:
     def reference(self) -> PointCloud:
         return PointCloud(self.X.copy(), self.w.copy())
 
-    def _kinematics(self, u: dolfinx.fem.Function):
-        """Per group: u at the points (nc, nq, gdim) and F (nc, nq, gdim, gdim)."""
+    def _kinematics(self, u: dolfinx.fem.Function) -> list[_Kinematics]:
+        """Per group: u, F^-1, det F and cof F N at its points, and its rows of the cloud."""
         bs = self.gdim
         values = u.x.array.reshape(-1, bs)
-        out = []
+        out, start = [], 0
         for group, Ji, dofs in zip(self.groups, self._Jinv, self._dofs):
             uc = values[dofs]  # (nc, ndofs, bs)
             uq = np.einsum("cak,qa->cqk", uc, group.phi[0])
             grad_ref = np.einsum("cak,tqa->cqkt", uc, group.phi[1:])
             F = np.eye(bs) + np.einsum("cqkt,cqtx->cqkx", grad_ref, Ji)
-            out.append((uq, F))
+            rows = slice(start, start + uq.shape[0] * uq.shape[1])
+            N = self.N[rows].reshape(uq.shape)
+            Fi, detF = np.linalg.inv(F), np.linalg.det(F)
+            cofN = detF[..., None] * np.einsum("cqxk,cqx->cqk", Fi, N)  # det F F^-T N
+            out.append(_Kinematics(uq, N, Fi, detF, cofN, rows))
+            start = rows.stop
         return out
 
     def deformed(self, u: dolfinx.fem.Function) -> PointCloud:
         """The deformed face: points X + u, weights w |cof F N|."""
         points, weights = [], []
-        start = 0
-        for uq, F in self._kinematics(u):
-            n = uq.shape[0] * uq.shape[1]
-            N = self.N[start:start + n].reshape(uq.shape)
-            cofN = np.linalg.det(F)[..., None] * np.einsum(
-                "cqxk,cqx->cqk", np.linalg.inv(F), N)  # cof F N = det F F^-T N
-            points.append(self.X[start:start + n] + uq.reshape(-1, self.gdim))
-            weights.append(self.w[start:start + n] * np.linalg.norm(cofN, axis=-1).ravel())
-            start += n
+        for k in self._kinematics(u):
+            points.append(self.X[k.rows] + k.u.reshape(-1, self.gdim))
+            weights.append(self.w[k.rows] * np.linalg.norm(k.cofN, axis=-1).ravel())
         if not points:
             return PointCloud(np.zeros((0, self.gdim)), np.zeros(0))
         return PointCloud(np.concatenate(points), np.concatenate(weights))
@@ -188,45 +202,29 @@ class FacetCloud:
         cloud's points and weights (this rank's points; summed over the ranks)."""
         bs = self.gdim
         local = np.zeros(u.x.array.size)
-        start = 0
-        for (uq, F), group, Ji, dofs in zip(self._kinematics(u), self.groups, self._Jinv,
-                                            self._dofs):
+        for k, group, Ji, dofs in zip(self._kinematics(u), self.groups, self._Jinv,
+                                      self._dofs):
             phi = group.phi
-            nc, nq = uq.shape[:2]
-            n = nc * nq
-            N = self.N[start:start + n].reshape(nc, nq, bs)
-            gx = grad_points[start:start + n].reshape(nc, nq, bs)
-            gw = (grad_weights[start:start + n] * self.w[start:start + n]).reshape(nc, nq)
-            Fi = np.linalg.inv(F)
-            detF = np.linalg.det(F)
-            cofN = detF[..., None] * np.einsum("cqxk,cqx->cqk", Fi, N)
-            m = cofN / np.linalg.norm(cofN, axis=-1)[..., None]
+            nc, nq = k.u.shape[:2]
+            gx = grad_points[k.rows].reshape(nc, nq, bs)
+            gw = (grad_weights[k.rows] * self.w[k.rows]).reshape(nc, nq)
+            Fi, N = k.Finv, k.N
+            m = k.cofN / np.linalg.norm(k.cofN, axis=-1)[..., None]
             p = np.einsum("cqkx,cqx->cqk", Fi, m)  # F^-1 m
             q = np.einsum("cqxk,cqx->cqk", Fi, N)  # F^-T N
             g = np.einsum("tqa,cqtx->cqax", phi[1:], Ji)  # physical gradients of the basis
             r = np.einsum("cqax,cqxk->cqak", g, Fi)  # g^T F^-1
             pN = np.einsum("cqk,cqk->cq", p, N)
             gp = np.einsum("cqax,cqx->cqa", g, p)
-            da = detF[..., None, None] * (r * pN[..., None, None]
-                                          - q[:, :, None, :] * gp[..., None])  # (c,q,a,k)
+            da = k.detF[..., None, None] * (r * pN[..., None, None]
+                                            - q[:, :, None, :] * gp[..., None])  # (c,q,a,k)
             contribution = (np.einsum("cqk,qa->cak", gx, phi[0])
                             + np.einsum("cq,cqak->cak", gw, da))
             np.add.at(local, (dofs[:, :, None] * bs + np.arange(bs)).ravel(),
                       contribution.ravel())
-            start += n
         out = dolfinx.fem.Function(u.function_space)
         out.x.array[:] = local
         vec = compat.petsc_vec(out)
         vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return vec.copy()  # owned by the caller, not by ``out``
-
-
-def facets_cells(facets: np.ndarray, f_to_c, c_to_f, local: int) -> list[int]:
-    """The cells of ``facets`` in which the facet is the cell's ``local``-th."""
-    out = []
-    for facet in facets:
-        cell = int(f_to_c.links(facet)[0])
-        if int(c_to_f.links(cell)[local]) == int(facet):
-            out.append(cell)
-    return out
 

@@ -221,6 +221,13 @@ def _read_msh_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 # ---- closed surfaces and their fill ----------------------------------------------------------
 
+def _edge_counts(triangles: np.ndarray) -> np.ndarray:
+    """How many triangles each edge bounds (one entry per distinct edge)."""
+    t = triangles
+    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    return np.unique(edges, axis=0, return_counts=True)[1]
+
+
 def surface_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """The points and triangles of a surface, open or closed, to be sampled with its area
     measure (objective.compare: a face): refused where a triangle has no area or where the
@@ -234,8 +241,7 @@ def surface_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
                     "triangle has no normal)")
     if len(np.unique(np.sort(t, axis=1), axis=0)) < len(t):
         raise _fail(path, "overlaps itself: a triangle is given twice; give each once")
-    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
-    _, counts = np.unique(edges, axis=0, return_counts=True)
+    counts = _edge_counts(t)
     if np.any(counts > 2):
         raise _fail(path, f"overlaps itself: {int(np.sum(counts > 2))} edges bound more than "
                     "two triangles; give one surface")
@@ -244,9 +250,7 @@ def surface_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 def check_closed(surface: TriangleSurface, path: Path) -> None:
     """Every edge bounds exactly two triangles (a closed, manifold surface)."""
-    t = surface.triangles
-    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
-    _, counts = np.unique(edges, axis=0, return_counts=True)
+    counts = _edge_counts(surface.triangles)
     open_edges, shared = int(np.sum(counts == 1)), int(np.sum(counts > 2))
     if open_edges:
         raise _fail(path, f"is not closed: {open_edges} edges bound one triangle only; close "
