@@ -220,3 +220,18 @@ def test_compare_names_faces_of_the_body_and_refuses_what_it_cannot_compare():
     assert err.value.problems == ["objective.compare: a 2D section model compares its volume "
                                   "(faces of a section: not yet); remove the key or use "
                                   "model.dim: 3"]
+
+
+def test_a_fitted_placement_is_for_a_free_body():
+    """objective.placement: fitted moves a free body onto its best fit; with a clamp it is
+    refused in one line."""
+    beam = CONFIGS / "tiny" / "beam_wave.yaml"
+    assert load(beam).objective.placement == "pinned"
+    assert load(beam, ["boundary.clamp=rigid", "objective.placement=fitted"]) \
+        .objective.placement == "fitted"
+    with pytest.raises(ConfigError) as err:
+        load(beam, ["objective.placement=fitted"])
+    assert err.value.problems == [
+        "objective.placement: fitted moves a free body (boundary.clamp: rigid) onto its best "
+        "fit; a clamped body stands where its clamp holds it: use placement: pinned or "
+        "clamp: rigid"]

@@ -72,10 +72,16 @@ CASES = {
         "growth.angles.initial=[0.4,1.0,0.2]", "mesh.cells=hex"]),
     "compare the boundary": (BEAM, ["objective.compare=boundary"]),
     "2D compare the top edge": (SQUARE, ["objective.compare=top"]),
+    # objective.placement: fitted: a free body's compared part in its best-fit placement
+    "free body fitted, top face": (BEAM, ["boundary.clamp=rigid", "objective.compare=top",
+                                          "objective.placement=fitted"]),
+    "2D free body fitted": (SQUARE, ["boundary.clamp=rigid", "objective.placement=fitted"]),
+    "axisymmetric free body fitted": (DISK_AXI, ["boundary.clamp=rigid",
+                                                 "objective.placement=fitted"]),
 }
 MPI_CASES = {"eigenvalues", "eigenvalues+free angles", "2D free frame",
              "X1-X3 section, plane stress", "axisymmetric", "stability penalty",
-             "compare the top face", "2D compare the top edge"}
+             "compare the top face", "2D compare the top edge", "free body fitted, top face"}
 
 
 def _params():

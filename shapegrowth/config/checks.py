@@ -112,6 +112,10 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     if cfg.target is not None:
         _check_target(cfg, errors)
     _check_compare(cfg, section, errors)
+    if cfg.objective.placement == "fitted" and cfg.boundary.clamped != ("rigid",):
+        errors.append("objective.placement: fitted moves a free body (boundary.clamp: rigid) "
+                      "onto its best fit; a clamped body stands where its clamp holds it: "
+                      "use placement: pinned or clamp: rigid")
     alphas = [a for a in cfg.objective.hausdorff.alphas if a is not None]  # None: reported
     if not cfg.objective.hausdorff.alphas or any(a <= 0 for a in alphas):
         errors.append("objective.hausdorff.alpha: give a positive number or a list of them, "

@@ -269,6 +269,13 @@ class ObjectiveConfig:
         "named face or a list of them (box and cube: top, bottom and every boundary name; "
         "tube and cylinder_shell: outer, inner; annulus: top, bottom; rectangle: top, "
         "bottom), each area pushed forward exactly (da = |cof F N| dA)", "volume")
+    placement: str = option(
+        "where the deformed body is compared: pinned (where boundary.clamp holds it), or "
+        "fitted (a free body, clamp: rigid: the compared part moved rigidly onto its own "
+        "reference by its least-squares rotation and centroid, so the mesh's choice of pinned "
+        "vertices does not tilt or move the compared shape; a section of a body of revolution "
+        "fits its axial position only; a target.map's image is placed the same way, a target "
+        "file where target.transform puts it)", "pinned", choices=("pinned", "fitted"))
 
     @property
     def compared(self) -> tuple[str, ...]:

@@ -20,6 +20,7 @@ from ..shape.clouds import QuadratureCloud, assemble
 from ..shape.divergence import ShapeDivergence
 from ..shape.facet_clouds import FacetCloud, boundary_facets
 from ..shape.hausdorff import PointCloud, SmoothHausdorff, exact_hausdorff
+from ..shape.rigid_fit import RigidFit
 from ..shape.targets import target_cloud
 from .complexity import complexity_density
 
@@ -55,7 +56,19 @@ class Objective:
             self._pullback, self._fill = self.cloud.pullback_form(state.u, ratio)
         else:
             self.cloud = FacetCloud(state.V, _facets(state, faces), h.quadrature_degree)
+        # objective.placement: fitted: a free body's compared part in its best-fit placement
+        self.fit: RigidFit | None = None
+        if cfg.objective.placement == "fitted":
+            reference = self.cloud.reference()
+            self.fit = RigidFit(reference.points, reference.weights, self.comm,
+                                axial=cfg.section.axisymmetric)
         self.target = target_cloud(cfg, self.cloud, self.comm)
+        if self.fit is not None and cfg.target is not None and cfg.target.map is not None:
+            # a map's image has the body's points: its shape is compared in the same placement
+            reference = self.cloud.reference()
+            placed = RigidFit(reference.points, reference.weights, self.comm,
+                              axial=cfg.section.axisymmetric)(self.target.points)
+            self.target = PointCloud(placed, self.target.weights)
         self.target_size = self.target.extent(self.comm)  # of the sample points, as rho_H sees it
         self.divergence = ShapeDivergence(
             SmoothHausdorff(alpha=h.alphas[0], beta=h.beta, gamma=h.gamma, phi=h.phi,
@@ -93,9 +106,12 @@ class Objective:
         return self.cloud if isinstance(self.cloud, FacetCloud) else None
 
     def deformed(self) -> PointCloud:
-        if isinstance(self.cloud, FacetCloud):
-            return self.cloud.deformed(self.state.u)
-        return self._deformed()
+        """The compared part of the deformed body (placed by objective.placement)."""
+        cloud = (self.cloud.deformed(self.state.u) if isinstance(self.cloud, FacetCloud)
+                 else self._deformed())
+        if self.fit is None:
+            return cloud
+        return PointCloud(self.fit(cloud.points), cloud.weights)
 
     def evaluate(self, gradient: bool) -> tuple[ObjectiveValue, PETSc.Vec | None]:
         """J at the current state; with ``gradient``, also dJ/du as a vector."""
@@ -110,11 +126,13 @@ class Objective:
                                pair.hausdorff, result.value, self.alpha)
         if not gradient:
             return value, None
+        assert result.grad_points is not None and result.grad_weights is not None
+        grad_points = result.grad_points
+        if self.fit is not None:  # through the placement (rigid_fit.py)
+            grad_points = self.fit.pullback(grad_points)
         if isinstance(self.cloud, FacetCloud):
-            assert result.grad_points is not None and result.grad_weights is not None
-            return value, self.cloud.pullback(self.state.u, result.grad_points,
-                                              result.grad_weights)
-        self._fill(result.grad_points, result.grad_weights)
+            return value, self.cloud.pullback(self.state.u, grad_points, result.grad_weights)
+        self._fill(grad_points, result.grad_weights)
         return value, assemble(self._pullback)
 
     def explicit_growth_derivatives(self) -> list[PETSc.Vec] | None:
