@@ -42,6 +42,34 @@ def test_the_faces_of_a_box_have_their_areas(cells):
     assert _cloud(BEAM, sets)[1].area() == pytest.approx(2 * (0.1 + 0.02 + 0.002), rel=1e-12)
 
 
+def _measure(corners: np.ndarray) -> np.ndarray:
+    """Areas of triangles (m, 3, 3), lengths of segments (m, 2, d)."""
+    if corners.shape[1] == 2:
+        return np.linalg.norm(corners[:, 1] - corners[:, 0], axis=1)
+    return 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
+                                         corners[:, 2] - corners[:, 0]), axis=1)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("config, sets, dim", [(BEAM, [], 3), (BEAM, ["mesh.cells=hex"], 3),
+                                                (SQUARE, [], 2)])
+def test_the_lattice_of_a_face_tiles_it_and_follows_the_displacement(config, sets, dim):
+    """A face's flat pieces (triangles of its triangles or quadrilaterals, segments of its
+    edges) have the face's area, and under u = (s - 1) X they land on s X with s^(dim - 1)
+    times it."""
+    model, cloud = _cloud(config, sets)
+    u = model.state.u
+    s = 1.3
+    u.interpolate(lambda x: (s - 1) * x[:dim])
+    X, moved, pieces = cloud.lattice(u)
+    assert pieces.shape[1] == dim
+    assert np.abs(moved - s * X).max(initial=0.0) < 1e-12
+    area = MPI.COMM_WORLD.allreduce(float(_measure(X[pieces]).sum()), MPI.SUM)
+    assert area == pytest.approx(cloud.area(), rel=1e-12)
+    stretched = MPI.COMM_WORLD.allreduce(float(_measure(moved[pieces]).sum()), MPI.SUM)
+    assert stretched == pytest.approx(s ** (dim - 1) * cloud.area(), rel=1e-12)
+
+
 @pytest.mark.mpi
 @pytest.mark.parametrize("config, sets, dim", [(BEAM, [], 3), (BEAM, ["mesh.cells=hex"], 3),
                                                 (SQUARE, [], 2), (TUBE, [], 3)])

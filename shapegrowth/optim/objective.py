@@ -21,8 +21,12 @@ from ..shape.divergence import ShapeDivergence
 from ..shape.facet_clouds import FacetCloud, boundary_facets
 from ..shape.hausdorff import PointCloud, SmoothHausdorff, exact_hausdorff
 from ..shape.rigid_fit import RigidFit
-from ..shape.targets import target_cloud
+from ..shape.surface_distance import Simplices, surface_hausdorff
+from ..shape.targets import mapped_points, surface_target, target_cloud
 from .complexity import complexity_density
+
+LATTICE = 4  # a face's facets in 4^2 flat triangles (2 x 4^2 on a hexahedron's quadrilaterals,
+# 4 segments in 2D) for its distance: a P2 facet's sag over a quarter of it, 1/16 of its own
 
 
 @dataclass
@@ -32,7 +36,8 @@ class ObjectiveValue:
     complexity: float
     d_target_to_body: float
     d_body_to_target: float
-    hausdorff: float  # exact Hausdorff distance of the clouds, a by-product of rho_H
+    hausdorff: float  # exact Hausdorff distance: of the clouds (a by-product of rho_H), or of
+    # the surfaces where a face is compared
     shape: float  # the shape term: the debiased divergence S, or rho_H (form: paper)
     alpha: float  # the alpha it was evaluated at
     stability: float = 0.0  # the stability penalty in total (optimizer.stability)
@@ -62,13 +67,34 @@ class Objective:
             reference = self.cloud.reference()
             self.fit = RigidFit(reference.points, reference.weights, self.comm,
                                 axial=cfg.section.axisymmetric)
-        self.target = target_cloud(cfg, self.cloud, self.comm)
+        # a face's exact Hausdorff distance is measured surface to surface
+        # (surface_distance.py): the target's pieces, whole on every rank, and its points
+        self._target_pieces: Simplices | None = None
+        self._target_probes = np.zeros((0, self.cloud.gdim))
+        target_fit = None
         if self.fit is not None and cfg.target is not None and cfg.target.map is not None:
             # a map's image has the body's points: its shape is compared in the same placement
             reference = self.cloud.reference()
-            placed = RigidFit(reference.points, reference.weights, self.comm,
-                              axial=cfg.section.axisymmetric)(self.target.points)
-            self.target = PointCloud(placed, self.target.weights)
+            target_fit = RigidFit(reference.points, reference.weights, self.comm,
+                                  axial=cfg.section.axisymmetric)
+        if isinstance(self.cloud, FacetCloud) and cfg.target is not None \
+                and cfg.target.map is None:
+            self.target, nodes, cells = surface_target(cfg, self.cloud, self.comm)
+            self._target_pieces = Simplices(nodes[cells])
+            lo, hi = (len(nodes) * self.comm.rank // self.comm.size,
+                      len(nodes) * (self.comm.rank + 1) // self.comm.size)
+            self._target_probes = nodes[lo:hi]  # a file's vertices
+        else:
+            self.target = target_cloud(cfg, self.cloud, self.comm)
+        if target_fit is not None:
+            self.target = PointCloud(target_fit(self.target.points), self.target.weights)
+        if isinstance(self.cloud, FacetCloud) and self._target_pieces is None:
+            X, _, pieces = self.cloud.lattice(None, LATTICE)
+            image, _ = mapped_points(cfg, X)
+            if target_fit is not None:
+                image = target_fit.place(image)
+            self._target_pieces = Simplices(np.concatenate(self.comm.allgather(image[pieces])))
+            self._target_probes = image
         self.target_size = self.target.extent(self.comm)  # of the sample points, as rho_H sees it
         self.divergence = ShapeDivergence(
             SmoothHausdorff(alpha=h.alphas[0], beta=h.beta, gamma=h.gamma, phi=h.phi,
@@ -121,9 +147,11 @@ class Objective:
         if self._complexity is not None:
             complexity = self.comm.allreduce(
                 dolfinx.fem.assemble_scalar(self._complexity), MPI.SUM)
+        hausdorff = (pair.hausdorff if self._target_pieces is None
+                     else self._surface_hausdorff())
         value = ObjectiveValue(result.value + complexity, pair.value, complexity,
                                pair.d_target_to_body, pair.d_body_to_target,
-                               pair.hausdorff, result.value, self.alpha)
+                               hausdorff, result.value, self.alpha)
         if not gradient:
             return value, None
         assert result.grad_points is not None and result.grad_weights is not None
@@ -142,7 +170,22 @@ class Objective:
         return [assemble(form) for form in self._complexity_derivatives]
 
     def exact_hausdorff(self) -> float:
-        return exact_hausdorff(self.deformed(), self.target, self.comm)
+        """The exact Hausdorff distance: of the clouds, or of a face's surfaces."""
+        deformed = self.deformed()  # (and the placement of the current state)
+        if self._target_pieces is not None:
+            return self._surface_hausdorff()
+        return exact_hausdorff(deformed, self.target, self.comm)
+
+    def _surface_hausdorff(self) -> float:
+        """The deformed face (its facets in flat pieces) against the target's pieces, each
+        side's points measured to the other's pieces, at the placement last computed."""
+        assert isinstance(self.cloud, FacetCloud) and self._target_pieces is not None
+        _, moved, pieces = self.cloud.lattice(self.state.u, LATTICE)
+        if self.fit is not None:
+            moved = self.fit.place(moved)
+        body = Simplices(np.concatenate(self.comm.allgather(moved[pieces])))
+        return surface_hausdorff(moved, body, self._target_probes, self._target_pieces,
+                                 self.comm)
 
     def relative_error(self) -> float:
         return self.exact_hausdorff() / self.target_size if self.target_size > 0 else np.inf

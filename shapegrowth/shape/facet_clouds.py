@@ -53,6 +53,8 @@ class _Group:
     gphi: np.ndarray
     normal: np.ndarray
     weights: np.ndarray
+    origin: np.ndarray  # the facet's first vertex in the reference cell
+    tangents: np.ndarray  # (tdim, fdim): origin + tangents xi maps the reference facet
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,33 @@ class _Kinematics:
 def _element(cell: basix.CellType, degree: int):
     return basix.create_element(basix.ElementFamily.P, cell, degree,
                                 basix.LagrangeVariant.gll_warped)
+
+
+def _subdivision(facet: str, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A reference facet's lattice points xi (L, fdim) and its pieces (indices into them):
+    a triangle in n^2 triangles, a quadrilateral in 2 n^2, an interval in n segments."""
+    if facet == "interval":
+        return (np.arange(n + 1, dtype=float)[:, None] / n,
+                np.column_stack([np.arange(n), np.arange(1, n + 1)]))
+    if facet == "quadrilateral":
+        i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+        xi = np.column_stack([i.ravel(), j.ravel()]) / n
+        at = (n + 1) * i[:-1, :-1].ravel() + j[:-1, :-1].ravel()
+        return xi, np.concatenate([np.column_stack([at, at + n + 1, at + n + 2]),
+                                   np.column_stack([at, at + n + 2, at + 1])])
+    index: dict[tuple[int, int], int] = {}
+    points: list[tuple[float, float]] = []
+    for a in range(n + 1):
+        for b in range(n + 1 - a):
+            index[a, b] = len(points)
+            points.append((a / n, b / n))
+    triangles: list[tuple[int, int, int]] = []
+    for a in range(n):
+        for b in range(n - a):
+            triangles.append((index[a, b], index[a + 1, b], index[a, b + 1]))
+            if a + b < n - 1:
+                triangles.append((index[a + 1, b], index[a + 1, b + 1], index[a, b + 1]))
+    return np.array(points), np.array(triangles)
 
 
 def boundary_facets(mesh) -> np.ndarray:
@@ -130,7 +159,9 @@ class FacetCloud:
                 normal = -normal
             phi = element.tabulate(1, points)[:, :, :, 0]  # (1 + tdim, nq, ndofs)
             gphi = geometry.tabulate(1, points)[:, :, :, 0]  # (1 + tdim, nq, nnodes)
-            self.groups.append(_Group(cells, phi, gphi, normal, np.asarray(qweights) * area))
+            self.groups.append(_Group(cells, phi, gphi, normal, np.asarray(qweights) * area,
+                                      v[0], tangents))
+        self._element, self._geometry, self._nodes = element, geometry, nodes
         self._prepare(nodes)
 
     def _prepare(self, nodes: np.ndarray) -> None:
@@ -160,6 +191,36 @@ class FacetCloud:
 
     def __len__(self) -> int:
         return len(self.w)
+
+    def lattice(self, u: dolfinx.fem.Function | None,
+                n: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """This rank's face as flat pieces: each facet's reference facet subdivided n times
+        (triangles, or segments in 2D), mapped into the body.  Returns the reference points
+        (P, gdim), the deformed points X + u (the reference where ``u`` is None) and the
+        simplices (S, fdim + 1), indices into the points."""
+        fdim = self.mesh.topology.dim - 1
+        xi, pieces = _subdivision(_FACET[self.mesh.topology.cell_type.name], n)
+        x = self.mesh.geometry.x[:, :self.gdim]
+        values = None if u is None else u.x.array.reshape(-1, self.gdim)
+        X, moved, simplices, offset = [], [], [], 0
+        for group, dofs in zip(self.groups, self._dofs):
+            points = group.origin + xi @ group.tangents.T
+            gphi = self._geometry.tabulate(0, points)[0, :, :, 0]  # (L, nnodes)
+            Xg = np.einsum("cnx,ln->clx", x[self._nodes[group.cells]], gphi)
+            Ug = np.zeros_like(Xg)
+            if values is not None:
+                phi = self._element.tabulate(0, points)[0, :, :, 0]  # (L, ndofs)
+                Ug = np.einsum("cak,la->clk", values[dofs], phi)
+            nc, L = Xg.shape[:2]
+            X.append(Xg.reshape(-1, self.gdim))
+            moved.append((Xg + Ug).reshape(-1, self.gdim))
+            simplices.append((offset + L * np.arange(nc)[:, None, None] + pieces[None])
+                             .reshape(-1, fdim + 1))
+            offset += nc * L
+        if not X:
+            empty = np.zeros((0, self.gdim))
+            return empty, empty, np.zeros((0, fdim + 1), dtype=np.int64)
+        return np.concatenate(X), np.concatenate(moved), np.concatenate(simplices)
 
     def area(self) -> float:
         """The reference face's area (all ranks)."""

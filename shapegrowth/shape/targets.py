@@ -40,17 +40,7 @@ def target_cloud(cfg: Config, cloud: QuadratureCloud | FacetCloud,
     if target is None:
         raise ConfigError(["target: required for this command (give map: or mesh:)"])
     if target.map is not None:
-        section = cfg.section
-        X = np.zeros((3, len(cloud)))
-        X[:cloud.gdim] = cloud.X.T
-        if section.reduced:  # the 3D points the section stands for; the map is the 3D body's
-            X = section.embed(X)
-        params, axis = cfg.expression_params, cfg.cylinder_axis
-        points = np.column_stack([evaluate(e, X, params, axis) for e in target.map])
-        if not np.isfinite(points).all():
-            raise ConfigError(["target.map: the map is not finite everywhere on the body"])
-        if section.reduced:
-            points = section.in_plane(points)
+        points, X = mapped_points(cfg, cloud.X)
         if isinstance(cloud, FacetCloud):  # the face's image, its area measure (Nanson)
             return PointCloud(points, cloud.w * mapped_area(target_gradient(cfg, X), cloud.N))
         return PointCloud(points, cloud.w * map_jacobian(cfg, X, target.weights))
@@ -58,13 +48,39 @@ def target_cloud(cfg: Config, cloud: QuadratureCloud | FacetCloud,
         if target.surface is None:  # the config's checks say so first
             raise ConfigError(["objective.compare: a face is compared with a target.map or "
                                "a target.surface"])
-        nodes, cells = surface_triangles(Path(target.surface))
-        return file_cloud(nodes, cells, cloud, target.transform, comm)
+        return surface_target(cfg, cloud, comm)[0]
     if target.surface is not None:
         nodes, cells = filled_surface(Path(target.surface))
     else:
         nodes, cells = _read_simplices(Path(resolved(target.mesh)), cfg.dim)
     return file_cloud(nodes, cells, cloud, target.transform, comm)
+
+
+def mapped_points(cfg: Config, X_mesh: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """target.map's image (n, gdim) of the mesh points X_mesh (n, gdim), and the 3D points
+    (3, n) they stand for (a section's points stand for the 3D body's)."""
+    target, section = resolved(cfg.target), cfg.section
+    X = np.zeros((3, len(X_mesh)))
+    X[:X_mesh.shape[1]] = X_mesh.T
+    if section.reduced:  # the 3D points the section stands for; the map is the 3D body's
+        X = section.embed(X)
+    params, axis = cfg.expression_params, cfg.cylinder_axis
+    points = np.column_stack([evaluate(e, X, params, axis) for e in resolved(target.map)])
+    if not np.isfinite(points).all():
+        raise ConfigError(["target.map: the map is not finite everywhere on the body"])
+    if section.reduced:
+        points = section.in_plane(points)
+    return points, X
+
+
+def surface_target(cfg: Config, cloud: FacetCloud,
+                   comm: MPI.Comm) -> tuple[PointCloud, np.ndarray, np.ndarray]:
+    """target.surface against a face: its cloud (this rank's share), its nodes as
+    target.transform places them against ``cloud`` and its triangles (whole, every rank)."""
+    target = resolved(cfg.target)
+    nodes, cells = surface_triangles(Path(resolved(target.surface)))
+    nodes = _placed(nodes, cells, cloud, target.transform, comm)
+    return _share(nodes, cells, cloud.degree, comm), nodes, cells
 
 
 def mapped_area(grad: np.ndarray, normals: np.ndarray) -> np.ndarray:
@@ -86,6 +102,18 @@ def file_cloud(nodes: np.ndarray, cells: np.ndarray, cloud: QuadratureCloud | Fa
                transform: TransformConfig, comm: MPI.Comm) -> PointCloud:
     """The cloud of a file's simplices (whole on every rank) placed by ``transform``: each
     rank takes a contiguous share of the cells, sampled at ``cloud``'s degree."""
+    return _share(_placed(nodes, cells, cloud, transform, comm), cells, cloud.degree, comm)
+
+
+def _share(nodes: np.ndarray, cells: np.ndarray, degree: int, comm: MPI.Comm) -> PointCloud:
+    """The cloud of this rank's contiguous share of the cells."""
+    lo, hi = (len(cells) * comm.rank) // comm.size, (len(cells) * (comm.rank + 1)) // comm.size
+    return simplex_cloud(nodes, cells[lo:hi], degree)
+
+
+def _placed(nodes: np.ndarray, cells: np.ndarray, cloud: QuadratureCloud | FacetCloud,
+            transform: TransformConfig, comm: MPI.Comm) -> np.ndarray:
+    """A file's nodes placed by ``transform`` (aligned onto ``cloud``'s reference)."""
     if not transform.identity:
         nodes = affine(nodes, transform)
     if transform.align == "principal_axes":
@@ -95,8 +123,7 @@ def file_cloud(nodes: np.ndarray, cells: np.ndarray, cloud: QuadratureCloud | Fa
         weights = np.concatenate(comm.allgather(body.weights))
         R, t = principal_alignment((whole.points, whole.weights), (points, weights))
         nodes = nodes @ R.T + t
-    lo, hi = (len(cells) * comm.rank) // comm.size, (len(cells) * (comm.rank + 1)) // comm.size
-    return simplex_cloud(nodes, cells[lo:hi], cloud.degree)
+    return nodes
 
 
 def simplex_cloud(nodes: np.ndarray, cells: np.ndarray, degree: int) -> PointCloud:
