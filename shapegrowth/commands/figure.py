@@ -27,11 +27,12 @@ def figure(run_dir: Path, out: Path, view: View) -> Path:
         raise InputError(f"figure: the run's best growth finds no equilibrium from rest on its "
                          f"mesh ({report.reason}); its fields.xdmf holds the run's last state")
     applied = model.state.applied
-    target = Objective(cfg, model.state).target.points
+    objective = Objective(cfg, model.state)
+    target = objective.target.points
     path = out / "shape3d.png"
     out.mkdir(parents=True, exist_ok=True)
     if not write_shape3d_png(path, cfg, model.state.u, applied.eigenvalues[0], target,
-                             "lambda_hat_1", view):
+                             "lambda_hat_1", view, objective.placements()):
         raise InputError(f"figure: {cfg.name} is a plane body; its picture is shape.png")
     log.info("wrote %s", path)
     return path

@@ -226,9 +226,11 @@ def write_outputs(out: Path, done: Optimised, extra: list | None = None) -> None
                     extra=[io.deformation_field(u), model.residual_strain_field(),
                            *(extra or [])])
     io.write_growth(out / "growth.npz", applied, model.cfg.mesh.refine)
-    write_shape_png(out / "shape.png", u, applied.eigenvalues[0], target, "lambda_hat_1")
+    places = done.rf.objective.placements()  # objective.placement: fitted
+    write_shape_png(out / "shape.png", u, applied.eigenvalues[0], target, "lambda_hat_1",
+                    places[0])
     write_shape3d_png(out / "shape3d.png", model.cfg, u, applied.eigenvalues[0], target,
-                      "lambda_hat_1")
+                      "lambda_hat_1", places=places)
     if applied.frame == "free" and applied.dim == 2:
         write_frame_png(out / "frame.png", u, applied.eigenvalues, applied.angles[0], target)
 

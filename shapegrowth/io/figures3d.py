@@ -16,7 +16,7 @@ import numpy as np
 
 from ..config import Config
 from ..config.expressions import evaluate
-from .plotting import Surface, draw, equal_axes_3d, surface
+from .plotting import Place, Surface, draw, equal_axes_3d, placed, surface
 
 REVOLUTION_SEGMENTS = 64
 
@@ -84,11 +84,12 @@ def _revolved(section: Surface, segments: int = REVOLUTION_SEGMENTS) -> Surface:
                    np.vstack(triangles), values)
 
 
-def body_surface(cfg: Config, u, field) -> Surface | None:
-    """The deformed body's 3D boundary coloured by ``field`` (collective); None for a plane
-    body, which is its own 2D picture (shape.png)."""
+def body_surface(cfg: Config, u, field, place: Place | None = None) -> Surface | None:
+    """The deformed body's 3D boundary coloured by ``field`` (collective), placed by
+    ``place`` (a section's points before they are lifted); None for a plane body, which is
+    its own 2D picture (shape.png)."""
     section = cfg.section
-    drawn = surface(u, field)
+    drawn = placed(surface(u, field), place, u.function_space.mesh.geometry.dim)
     if cfg.dim == 3:
         return drawn
     if not section.reduced:
@@ -101,26 +102,32 @@ def body_surface(cfg: Config, u, field) -> Surface | None:
     return _extruded(drawn, section.axes, across, (-half, half))
 
 
-def map_target(cfg: Config, body: Surface) -> Surface | None:
-    """Phi_d on the body's reference surface, where the target is a map."""
+def map_target(cfg: Config, body: Surface, place: Place | None = None) -> Surface | None:
+    """Phi_d on the body's reference surface, where the target is a map (placed by
+    ``place``, a 3D body's)."""
     target = cfg.target
     if target is None or target.map is None:
         return None
     X = body.reference.T
     points = np.column_stack([evaluate(e, X, cfg.expression_params, cfg.cylinder_axis)
                               for e in target.map])
+    if place is not None and cfg.dim == 3:
+        points = place(points)
     return Surface(body.reference, points, body.triangles, None)
 
 
 def write_shape3d_png(path, cfg: Config, u, field, target_points: np.ndarray, label: str,
-                      view: View = View()) -> bool:
+                      view: View = View(), places: tuple[Place | None, Place | None] = (None,
+                                                                                      None)
+                      ) -> bool:
     """The deformed body (coloured by ``field``) over its translucent target, in 3D
-    (collective; rank 0 writes).  False where the body is a plane body (nothing written)."""
+    (collective; rank 0 writes); ``places``: how the body and a map's image are placed
+    (objective.placement: fitted).  False where the body is a plane body (nothing written)."""
     comm = u.function_space.mesh.comm
-    body = body_surface(cfg, u, field)
+    body = body_surface(cfg, u, field, places[0])
     if body is None:
         return False
-    target = map_target(cfg, body)
+    target = map_target(cfg, body, places[1])
     cloud = None if target is not None else np.concatenate(comm.allgather(target_points))
     if comm.rank != 0:
         return True

@@ -5,6 +5,7 @@ small meshes: everything is gathered on every rank, and rank 0 draws.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import dolfinx.fem
@@ -118,13 +119,26 @@ def equal_axes_3d(ax, P: np.ndarray) -> None:
     ax.set_box_aspect((1, 1, 1))
 
 
+Place = Callable[[np.ndarray], np.ndarray]  # the body's points (mesh coordinates) as compared
+
+
+def placed(surf: Surface, place: Place | None, gdim: int) -> Surface:
+    """``surf`` (of a mesh of dimension ``gdim``) with its deformed points moved by
+    ``place`` (objective.placement: fitted)."""
+    if place is None:
+        return surf
+    moved = surf.deformed.copy()
+    moved[:, :gdim] = place(surf.deformed[:, :gdim])
+    return Surface(surf.reference, moved, surf.triangles, surf.values)
+
+
 def write_shape_png(path, u: dolfinx.fem.Function, field: dolfinx.fem.Function,
-                    target_points: np.ndarray, label: str) -> None:
-    """The deformed body coloured by ``field`` with the target's sample points as dots, seen
-    along the axis in which the body is thinnest (a side view of a beam, the plane of a 2D
-    body).  Collective; rank 0 writes."""
+                    target_points: np.ndarray, label: str, place: Place | None = None) -> None:
+    """The deformed body coloured by ``field`` (placed by ``place``) with the target's sample
+    points as dots, seen along the axis in which the body is thinnest (a side view of a beam,
+    the plane of a 2D body).  Collective; rank 0 writes."""
     comm = u.function_space.mesh.comm
-    surf = surface(u, field)
+    surf = placed(surface(u, field), place, u.function_space.mesh.geometry.dim)
     target = np.concatenate(comm.allgather(np.asarray(target_points)))
     if comm.rank != 0:
         return

@@ -5,6 +5,7 @@ or, with ``objective.hausdorff.form: paper``, rho_H of (2.9) itself."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import dolfinx.fem
@@ -88,6 +89,7 @@ class Objective:
             self.target = target_cloud(cfg, self.cloud, self.comm)
         if target_fit is not None:
             self.target = PointCloud(target_fit(self.target.points), self.target.weights)
+        self._target_fit = target_fit
         if isinstance(self.cloud, FacetCloud) and self._target_pieces is None:
             X, _, pieces = self.cloud.lattice(None, LATTICE)
             image, _ = mapped_points(cfg, X)
@@ -168,6 +170,17 @@ class Objective:
         if self._complexity is None:
             return None
         return [assemble(form) for form in self._complexity_derivatives]
+
+    def placements(self) -> tuple[Callable[[np.ndarray], np.ndarray] | None,
+                                  Callable[[np.ndarray], np.ndarray] | None]:
+        """How points of the body (mesh coordinates, at the current state) and of a map's
+        image are placed to be compared (objective.placement: fitted), for figures; None
+        where they stand as they are (collective)."""
+        if self.fit is None:
+            return None, None
+        self.deformed()  # the placement of the current state
+        target = None if self._target_fit is None else self._target_fit.place
+        return self.fit.place, target
 
     def exact_hausdorff(self) -> float:
         """The exact Hausdorff distance: of the clouds, or of a face's surfaces."""
