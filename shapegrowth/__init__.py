@@ -55,6 +55,7 @@ _API = {
     "draw": ("shapegrowth.io.plotting", "draw"),
     "read_surface": ("shapegrowth.shape.surface_files", "read_surface"),
     "write_stl": ("shapegrowth.shape.surface_files", "write_stl"),
+    "RigidFit": ("shapegrowth.shape.rigid_fit", "RigidFit"),
 }
 __all__ = [
     "__version__",
@@ -91,6 +92,7 @@ __all__ = [
     "draw",
     "read_surface",
     "write_stl",
+    "RigidFit",
 ]
 
 if TYPE_CHECKING:
@@ -114,6 +116,7 @@ if TYPE_CHECKING:
     from .physics.model import ForwardModel, build_model
     from .physics.state import StateProblem
     from .shape.hausdorff import PointCloud, SmoothHausdorff
+    from .shape.rigid_fit import RigidFit
     from .shape.surface_files import read_surface, write_stl
     from .status import Outcome, Status
 
