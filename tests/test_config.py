@@ -215,10 +215,12 @@ def test_compare_names_faces_of_the_body_and_refuses_what_it_cannot_compare():
         with pytest.raises(ConfigError) as err:
             load(beam, [setting])
         assert err.value.problems == [message]
+    assert load(beam, ["objective.compare=top", "model.dim=2", "mesh.layers=2"]) \
+        .objective.faces("box") == ("x3_max",)  # the section's top edge stands for the face
     with pytest.raises(ConfigError) as err:
-        load(beam, ["objective.compare=top", "model.dim=2", "mesh.layers=2"])
-    assert err.value.problems == ["objective.compare: a 2D section model compares its volume "
-                                  "(faces of a section: not yet); remove the key or use "
+        load(beam, ["objective.compare=x2_min", "model.dim=2", "mesh.layers=2"])
+    assert err.value.problems == ["objective.compare: 'x2_min' is not on the section a 2D "
+                                  "model of a box keeps; compare a face in the plane, or use "
                                   "model.dim: 3"]
 
 

@@ -51,6 +51,29 @@ def _measure(corners: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.mpi
+@pytest.mark.parametrize("cells", ["simplex", "hex"])
+def test_a_meridian_edge_stands_for_the_surface_it_sweeps(cells):
+    """The (R, Z) section of the annulus (radii 0.2 and 1, thickness 0.05): its top edge
+    weighs the top face's area pi (1 - 0.2^2), its outer rim's 2 pi 0.05; under the uniform
+    stretch u = (s - 1) X the top grows by s^2 (2 pi r |cof F N| with r = s R)."""
+    from shapegrowth.config import load
+    from shapegrowth.physics.model import ForwardModel
+    from shapegrowth.shape.facet_clouds import FacetCloud
+
+    model = ForwardModel.build(load(CONFIGS / "tiny" / "disk_axi.yaml", [f"mesh.cells={cells}"]))
+    domain = model.domain
+    top = FacetCloud(model.state.V, domain.facets(("x3_max",)), 4, axisymmetric=True)
+    rim = FacetCloud(model.state.V, domain.facets(("outer_rim",)), 4, axisymmetric=True)
+    assert top.area() == pytest.approx(np.pi * (1 - 0.2 ** 2), rel=1e-12)
+    assert rim.area() == pytest.approx(2 * np.pi * 0.05, rel=1e-12)
+    u = model.state.u
+    s = 1.3
+    u.interpolate(lambda x: (s - 1) * x[:2])
+    area = MPI.COMM_WORLD.allreduce(float(top.deformed(u).weights.sum()), MPI.SUM)
+    assert area == pytest.approx(s ** 2 * top.area(), rel=1e-12)
+
+
+@pytest.mark.mpi
 @pytest.mark.parametrize("config, sets, dim", [(BEAM, [], 3), (BEAM, ["mesh.cells=hex"], 3),
                                                 (SQUARE, [], 2)])
 def test_the_lattice_of_a_face_tiles_it_and_follows_the_displacement(config, sets, dim):

@@ -72,6 +72,13 @@ CASES = {
         "growth.angles.initial=[0.4,1.0,0.2]", "mesh.cells=hex"]),
     "compare the boundary": (BEAM, ["objective.compare=boundary"]),
     "2D compare the top edge": (SQUARE, ["objective.compare=top"]),
+    # a section's faces: the X1-X3 section's top edge (a face of the beam), the disk's meridian
+    # top edge (a surface of revolution, weights 2 pi r |cof F N|)
+    "X1-X3 section, compare the top face": (BEAM, ["model.dim=2", "mesh.size=0.05",
+                                                   "mesh.layers=2", "objective.compare=top"]),
+    "axisymmetric, compare the top face": (DISK_AXI, ["objective.compare=top"]),
+    "axisymmetric, compare the boundary, fitted": (DISK_AXI, [
+        "objective.compare=boundary", "boundary.clamp=rigid", "objective.placement=fitted"]),
     # objective.placement: fitted: a free body's compared part in its best-fit placement
     "free body fitted, top face": (BEAM, ["boundary.clamp=rigid", "objective.compare=top",
                                           "objective.placement=fitted"]),
@@ -81,7 +88,8 @@ CASES = {
 }
 MPI_CASES = {"eigenvalues", "eigenvalues+free angles", "2D free frame",
              "X1-X3 section, plane stress", "axisymmetric", "stability penalty",
-             "compare the top face", "2D compare the top edge", "free body fitted, top face"}
+             "compare the top face", "2D compare the top edge", "free body fitted, top face",
+             "axisymmetric, compare the top face"}
 
 
 def _params():

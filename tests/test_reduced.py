@@ -289,6 +289,13 @@ def test_lift_refuses_a_run_folder_without_a_run_and_another_body(shared_tmp, ca
         check_liftable(reduced, other)
     assert [p.split(" ")[0] + " " + p.split("has ")[-1][:16] for p in err.value.problems] == [
         "verify.lift: another geometry", "verify.lift: another clamp th"]
+    with pytest.raises(sg.ConfigError) as err:  # the lift measures what the run compared
+        check_liftable(_section(WAVE, "objective.compare=top"), sg.load_config(WAVE))
+    assert err.value.problems == [
+        "verify.lift: 'tiny_beam_wave' compares ['volume'] (pinned), the run ['top'] (pinned); "
+        "the lift must measure what the run compared"]
+    check_liftable(_section(WAVE, "objective.compare=top"),
+                   sg.load_config(WAVE, ["objective.compare=top"]))
 
 
 @pytest.mark.mpi

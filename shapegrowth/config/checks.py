@@ -335,8 +335,8 @@ def _check_expressions(cfg: Config, growth: GrowthConfig, errors: list[str]) -> 
 
 def _check_compare(cfg: Config, section: Section, errors: list[str]) -> None:
     """objective.compare: volume, boundary, or faces of this body; a face is compared with a
-    target map's image of the same face or with a target surface, on a 3D or plane body
-    (not on a 2D section yet)."""
+    target map's image of the same face or with a target surface; a section compares the
+    faces it keeps (its edges stand for them)."""
     names = cfg.objective.compared
     kind = cfg.geometry.kind
     faces = cfg.objective.faces(kind)
@@ -350,9 +350,10 @@ def _check_compare(cfg: Config, section: Section, errors: list[str]) -> None:
                       f"not volume, boundary or faces of a {kind} (faces: {', '.join(allowed)})")
     elif len(set(faces)) < len(faces):
         errors.append(f"objective.compare: {list(names)} names a face twice; name each once")
-    if section.reduced:
-        errors.append("objective.compare: a 2D section model compares its volume (faces of "
-                      "a section: not yet); remove the key or use model.dim: 3")
+    off = [n for n in faces if n in _OFF_SECTION.get(kind, ())] if section.reduced else []
+    if off:
+        errors.append(f"objective.compare: '{off[0]}' is not on the section a 2D model of a "
+                      f"{kind} keeps; compare a face in the plane, or use model.dim: 3")
     if cfg.target is not None and cfg.target.mesh is not None:
         errors.append("objective.compare: a face is compared with a target.map's image of it "
                       "or with a target.surface, not with a volume mesh; use compare: volume")

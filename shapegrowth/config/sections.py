@@ -268,7 +268,9 @@ class ObjectiveConfig:
         "its volume measure), boundary (its whole surface, with its area measure), or a "
         "named face or a list of them (box and cube: top, bottom and every boundary name; "
         "tube and cylinder_shell: outer, inner; annulus: top, bottom; rectangle: top, "
-        "bottom), each area pushed forward exactly (da = |cof F N| dA)", "volume")
+        "bottom), each area pushed forward exactly (da = |cof F N| dA); a 2D section compares "
+        "the edges that stand for the faces it keeps (a meridian's edge as the surface it "
+        "sweeps, 2 pi r |cof F N| dS)", "volume")
     placement: str = option(
         "where the deformed body is compared: pinned (where boundary.clamp holds it), or "
         "fitted (a free body, clamp: rigid: the compared part moved rigidly onto its own "

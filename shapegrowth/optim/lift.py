@@ -85,6 +85,11 @@ def check_liftable(reduced: Config, solid: Config) -> None:
         problems.append(f"verify.lift: '{solid.name}' has another material than the run")
     if set(solid.boundary.clamped) != set(reduced.boundary.clamped):
         problems.append(f"verify.lift: '{solid.name}' has another clamp than the run")
+    ours, theirs = reduced.objective, solid.objective
+    if (set(theirs.compared), theirs.placement) != (set(ours.compared), ours.placement):
+        problems.append(f"verify.lift: '{solid.name}' compares {list(theirs.compared)} "
+                        f"({theirs.placement}), the run {list(ours.compared)} "
+                        f"({ours.placement}); the lift must measure what the run compared")
     if problems:
         raise ConfigError(problems)
 

@@ -61,7 +61,8 @@ class Objective:
             self._deformed = self.cloud.deformed_factory(state.u, ratio)
             self._pullback, self._fill = self.cloud.pullback_form(state.u, ratio)
         else:
-            self.cloud = FacetCloud(state.V, _facets(state, faces), h.quadrature_degree)
+            self.cloud = FacetCloud(state.V, _facets(state, faces), h.quadrature_degree,
+                                    axisymmetric=cfg.section.axisymmetric)
         # objective.placement: fitted: a free body's compared part in its best-fit placement
         self.fit: RigidFit | None = None
         if cfg.objective.placement == "fitted":

@@ -10,7 +10,9 @@ w_q the facet's reference area weights and N its outward unit normal, so that su
 cloud are integrals over the deformed face.  Everything is evaluated here with basix's
 tabulations at the facets' points mapped into the reference cell (one map per local facet),
 so it serves every cell kind (triangles, tetrahedra, quadrilaterals, hexahedra) and dolfinx
-release alike.
+release alike.  The (R, Z) section of a body of revolution compares its edges as the
+surfaces they sweep: weights w_q 2 pi r |cof F N| with the deformed radius r = R + u_R
+(2 pi R at rest), whose derivative joins the points' (2 pi w_q |cof F N| on u_R).
 
 A derivative of a function of the cloud with respect to its points (g_x) and weights (g_w)
 becomes a derivative with respect to u through
@@ -113,9 +115,13 @@ class FacetCloud:
     """Quadrature points of degree ``degree`` on the boundary facets ``facets`` (local
     indices) of the displacement space ``space``'s mesh."""
 
-    def __init__(self, space: dolfinx.fem.FunctionSpace, facets: np.ndarray, degree: int):
+    def __init__(self, space: dolfinx.fem.FunctionSpace, facets: np.ndarray, degree: int,
+                 axisymmetric: bool = False):
+        """``axisymmetric``: the mesh is the (R, Z) section of a body of revolution, its
+        edges stand for surfaces of revolution (area 2 pi r times length)."""
         mesh = space.mesh
         self.space, self.mesh, self.degree = space, mesh, degree
+        self.axisymmetric = axisymmetric
         tdim, self.gdim = mesh.topology.dim, mesh.geometry.dim
         if tdim != self.gdim:
             raise ValueError("a facet cloud needs a body of the space's own dimension")
@@ -186,8 +192,14 @@ class FacetCloud:
             np.zeros((0, self.gdim))
         self.N = np.concatenate([a.reshape(-1, self.gdim) for a in N]) if N else \
             np.zeros((0, self.gdim))
-        self.w = np.concatenate([a.reshape(-1) for a in w]) if w else np.zeros(0)
+        self._w_plane = np.concatenate([a.reshape(-1) for a in w]) if w else np.zeros(0)
+        self.w = self._w_plane * self._hoop(self.X[:, 0]) if self.axisymmetric else \
+            self._w_plane  # (a body of revolution's: times 2 pi R)
         self._Jinv, self._dofs = Jinv, dofs
+
+    @staticmethod
+    def _hoop(radius: np.ndarray) -> np.ndarray:
+        return 2 * np.pi * radius
 
     def __len__(self) -> int:
         return len(self.w)
@@ -251,8 +263,10 @@ class FacetCloud:
         """The deformed face: points X + u, weights w |cof F N|."""
         points, weights = [], []
         for k in self._kinematics(u):
-            points.append(self.X[k.rows] + k.u.reshape(-1, self.gdim))
-            weights.append(self.w[k.rows] * np.linalg.norm(k.cofN, axis=-1).ravel())
+            moved = self.X[k.rows] + k.u.reshape(-1, self.gdim)
+            points.append(moved)
+            weight = self._w_plane[k.rows] * np.linalg.norm(k.cofN, axis=-1).ravel()
+            weights.append(weight * self._hoop(moved[:, 0]) if self.axisymmetric else weight)
         if not points:
             return PointCloud(np.zeros((0, self.gdim)), np.zeros(0))
         return PointCloud(np.concatenate(points), np.concatenate(weights))
@@ -268,7 +282,13 @@ class FacetCloud:
             phi = group.phi
             nc, nq = k.u.shape[:2]
             gx = grad_points[k.rows].reshape(nc, nq, bs)
-            gw = (grad_weights[k.rows] * self.w[k.rows]).reshape(nc, nq)
+            gw = (grad_weights[k.rows] * self._w_plane[k.rows]).reshape(nc, nq)
+            if self.axisymmetric:  # w 2 pi r |cof F N|: r = R + u_R moves too
+                area = np.linalg.norm(k.cofN, axis=-1)  # (c, q)
+                radius = self.X[k.rows, 0].reshape(nc, nq) + k.u[..., 0]
+                gx = gx.copy()
+                gx[..., 0] += gw * area * 2 * np.pi
+                gw = gw * self._hoop(radius)
             Fi, N = k.Finv, k.N
             m = k.cofN / np.linalg.norm(k.cofN, axis=-1)[..., None]
             p = np.einsum("cqkx,cqx->cqk", Fi, m)  # F^-1 m

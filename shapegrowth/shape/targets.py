@@ -42,7 +42,7 @@ def target_cloud(cfg: Config, cloud: QuadratureCloud | FacetCloud,
     if target.map is not None:
         points, X = mapped_points(cfg, cloud.X)
         if isinstance(cloud, FacetCloud):  # the face's image, its area measure (Nanson)
-            return PointCloud(points, cloud.w * mapped_area(target_gradient(cfg, X), cloud.N))
+            return PointCloud(points, cloud.w * _section_area(cfg, X, cloud.N))
         return PointCloud(points, cloud.w * map_jacobian(cfg, X, target.weights))
     if isinstance(cloud, FacetCloud):  # a face against a surface, open or closed
         if target.surface is None:  # the config's checks say so first
@@ -81,6 +81,19 @@ def surface_target(cfg: Config, cloud: FacetCloud,
     nodes, cells = surface_triangles(Path(resolved(target.surface)))
     nodes = _placed(nodes, cells, cloud, target.transform, comm)
     return _share(nodes, cells, cloud.degree, comm), nodes, cells
+
+
+def _section_area(cfg: Config, X: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """The face's area factor under target.map at the 3D points X: a plane section's edge
+    by the map's in-plane block, a meridian's edge by the 3D map on the surface it sweeps
+    (its tangent and the hoop direction: |G t| r/R for a map of revolution)."""
+    grad, section = target_gradient(cfg, X), cfg.section
+    if not section.reduced:
+        return mapped_area(grad, normals)
+    if section.axisymmetric:
+        return mapped_area(grad, section.embed(normals.T).T)
+    axes = list(section.axes)
+    return mapped_area(grad[:, axes][:, :, axes], normals)
 
 
 def mapped_area(grad: np.ndarray, normals: np.ndarray) -> np.ndarray:
