@@ -173,7 +173,7 @@ class GrowthConfig:
         "mesh (run)", None)
 
 
-ALIGNMENTS = ("none", "principal_axes")
+ALIGNMENTS = ("none", "principal_axes", "best_fit")
 
 
 @dataclass(frozen=True)
@@ -191,7 +191,11 @@ class TransformConfig:
     align: str = option(
         "'principal_axes': then move the target rigidly so that its centroid and principal "
         "axes of inertia fall on the body's reference ones (needs three distinct principal "
-        "moments in both)", "none", choices=ALIGNMENTS)
+        "moments in both); 'best_fit': from where scale, rotation and translation put it, the "
+        "rigid motion that brings it closest to the body's compared part (iterated closest "
+        "points: to the face's tangent planes where a face is compared, else to its points), "
+        "for targets whose principal axes are not defined (a square, a disk, a cube) or not "
+        "the body's", "none", choices=ALIGNMENTS)
 
     @property
     def identity(self) -> bool:

@@ -30,7 +30,7 @@ from ..config.maps import map_jacobian, target_gradient
 from .clouds import QuadratureCloud
 from .facet_clouds import FacetCloud
 from .hausdorff import PointCloud
-from .placement import affine, principal_alignment
+from .placement import affine, best_fit, principal_alignment
 from .surface_files import filled_surface, surface_triangles
 
 
@@ -129,12 +129,17 @@ def _placed(nodes: np.ndarray, cells: np.ndarray, cloud: QuadratureCloud | Facet
     """A file's nodes placed by ``transform`` (aligned onto ``cloud``'s reference)."""
     if not transform.identity:
         nodes = affine(nodes, transform)
-    if transform.align == "principal_axes":
+    if transform.align != "none":
         whole = simplex_cloud(nodes, cells, cloud.degree)
         body = cloud.reference()
         points = np.concatenate(comm.allgather(body.points))
         weights = np.concatenate(comm.allgather(body.weights))
-        R, t = principal_alignment((whole.points, whole.weights), (points, weights))
+        if transform.align == "principal_axes":
+            R, t = principal_alignment((whole.points, whole.weights), (points, weights))
+        else:  # best_fit: to a face's tangent planes, or to the volume's points
+            normals = np.concatenate(comm.allgather(cloud.N)) \
+                if isinstance(cloud, FacetCloud) else None
+            R, t = best_fit((whole.points, whole.weights), (points, weights), normals)
         nodes = nodes @ R.T + t
     return nodes
 
