@@ -231,7 +231,8 @@ def _edge_counts(triangles: np.ndarray) -> np.ndarray:
 def surface_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """The points and triangles of a surface, open or closed, to be sampled with its area
     measure (objective.compare: a face): refused where a triangle has no area or where the
-    surface overlaps itself (a triangle twice, or an edge of more than two triangles)."""
+    surface overlaps itself (a triangle twice, an edge of more than two triangles, or two
+    triangles passing through each other)."""
     surface = read_surface(path)
     p, t = surface.points, surface.triangles
     areas = np.linalg.norm(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]), axis=1)
@@ -245,7 +246,58 @@ def surface_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
     if np.any(counts > 2):
         raise _fail(path, f"overlaps itself: {int(np.sum(counts > 2))} edges bound more than "
                     "two triangles; give one surface")
+    crossing = crossing_pairs(p, t)
+    if len(crossing):
+        a, b = crossing[0]
+        raise _fail(path, f"overlaps itself: {len(crossing)} pairs of triangles cross (the "
+                    f"first: triangles {a} and {b}); give a surface that does not pass "
+                    "through itself")
     return p, t
+
+
+def crossing_pairs(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """The pairs of triangles (m, 2) that pass through each other: an edge of one crossing
+    the other's interior (Moller-Trumbore, strictly inside both), among the pairs whose
+    bounding spheres meet and which share no vertex (neighbours touch, they do not cross).
+    Two flat triangles overlapping in one plane, and a crossing exactly through an edge or a
+    vertex, are not seen (a triangle given twice is)."""
+    from scipy.spatial import cKDTree
+
+    corners = points[triangles]  # (n, 3, 3)
+    centres = corners.mean(axis=1)
+    radius = np.linalg.norm(corners - centres[:, None], axis=2).max(axis=1)
+    pairs = cKDTree(centres).query_pairs(2 * float(radius.max(initial=0.0)),
+                                         output_type="ndarray")
+    if len(pairs) == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    i, j = pairs[:, 0], pairs[:, 1]
+    near = np.linalg.norm(centres[i] - centres[j], axis=1) <= radius[i] + radius[j]
+    shared = (triangles[i][:, :, None] == triangles[j][:, None, :]).any(axis=(1, 2))
+    i, j = i[near & ~shared], j[near & ~shared]
+    hit = np.zeros(len(i), dtype=bool)
+    for first, second in ((i, j), (j, i)):
+        for e in range(3):
+            start, end = corners[first, e], corners[first, (e + 1) % 3]
+            hit |= _segment_crosses(start, end, corners[second])
+    return np.column_stack([i[hit], j[hit]])
+
+
+def _segment_crosses(start: np.ndarray, end: np.ndarray, tri: np.ndarray,
+                     eps: float = 1e-9) -> np.ndarray:
+    """Whether each segment start-end passes through the interior of its triangle."""
+    direction = end - start
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    h = np.cross(direction, e2)
+    det = np.einsum("ij,ij->i", e1, h)
+    ok = np.abs(det) > eps * np.linalg.norm(direction, axis=1) * np.linalg.norm(e1, axis=1) \
+        * np.linalg.norm(e2, axis=1)  # not parallel to the plane
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    s = start - tri[:, 0]
+    u = inv * np.einsum("ij,ij->i", s, h)
+    q = np.cross(s, e1)
+    v = inv * np.einsum("ij,ij->i", direction, q)
+    t = inv * np.einsum("ij,ij->i", e2, q)
+    return ok & (u > eps) & (v > eps) & (u + v < 1 - eps) & (t > eps) & (t < 1 - eps)
 
 
 def check_closed(surface: TriangleSurface, path: Path) -> None:
