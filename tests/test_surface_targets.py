@@ -515,3 +515,26 @@ def test_crossings_are_found_and_a_clean_relief_has_none():
     assert len(crossing_pairs(both, two)) == 0
     both[len(points) + 11 * 20 + 5, 2] -= 0.05
     assert len(crossing_pairs(both, two)) > 0
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("compare", ["volume", "boundary"])
+def test_the_gradient_against_a_closed_surface_file_is_exact(shared_tmp, compare):
+    """Taylor rate of the reduced gradient of the free cube against a closed surface from a
+    file (a box of 1.2 x 1 x 0.8 in millimetres): its volume against the filled surface, its
+    boundary against the surface itself, in the fitted placement."""
+    from conftest import read_json
+
+    stl = shared_tmp / "box_mm.stl"
+    if MPI.COMM_WORLD.rank == 0:
+        shape = box((0.0, 0.0, 0.1), (1.2, 1.0, 0.9))
+        write_ascii_stl(stl, TriangleSurface(1000 * shape.points, shape.triangles))
+    MPI.COMM_WORLD.barrier()
+    sets = ["target.map=null", f"target.surface={stl}", "target.transform.scale=0.001",
+            f"objective.compare={compare}", "objective.placement=fitted",
+            "growth.eigenvalues.initial=[1.1, 1.0, 0.9]"]
+    status = run_cli("gradcheck", CUBE, "--out", shared_tmp, "-q",
+                     *[a for s in sets for a in ("--set", s)])
+    report = read_json(shared_tmp / "gradcheck.json")
+    assert report["min_rate"] > 1.9, report["rates"]
+    assert status == 0
