@@ -73,8 +73,8 @@ class Simplices:
     def __init__(self, corners: np.ndarray):
         self.corners = np.asarray(corners, dtype=float)
         self.centroids = self.corners.mean(axis=1)
-        self.radius = float(np.linalg.norm(self.corners - self.centroids[:, None], axis=2)
-                            .max(initial=0.0))
+        self.radius = float(np.max(np.linalg.norm(self.corners - self.centroids[:, None],
+                                                  axis=2), initial=0.0))
         self.tree = cKDTree(self.centroids) if len(self.corners) else None
 
     def __len__(self) -> int:

@@ -266,7 +266,7 @@ def crossing_pairs(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     corners = points[triangles]  # (n, 3, 3)
     centres = corners.mean(axis=1)
     radius = np.linalg.norm(corners - centres[:, None], axis=2).max(axis=1)
-    pairs = cKDTree(centres).query_pairs(2 * float(radius.max(initial=0.0)),
+    pairs = cKDTree(centres).query_pairs(2 * float(np.max(radius, initial=0.0)),
                                          output_type="ndarray")
     if len(pairs) == 0:
         return np.zeros((0, 2), dtype=np.int64)
