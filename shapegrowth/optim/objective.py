@@ -23,7 +23,7 @@ from ..shape.facet_clouds import FacetCloud, boundary_facets
 from ..shape.hausdorff import PointCloud, SmoothHausdorff, exact_hausdorff
 from ..shape.rigid_fit import RigidFit
 from ..shape.surface_distance import Simplices, surface_hausdorff
-from ..shape.targets import mapped_points, surface_target, target_cloud
+from ..shape.targets import mapped_points, rank_share, surface_target, target_cloud
 from .complexity import complexity_density
 
 LATTICE = 4  # a face's facets in 4^2 flat triangles (2 x 4^2 on a hexahedron's quadrilaterals,
@@ -65,27 +65,25 @@ class Objective:
                                     axisymmetric=cfg.section.axisymmetric)
         # objective.placement: fitted: a free body's compared part in its best-fit placement
         self.fit: RigidFit | None = None
+        target_fit = None
         if cfg.objective.placement == "fitted":
             reference = self.cloud.reference()
             self.fit = RigidFit(reference.points, reference.weights, self.comm,
                                 axial=cfg.section.axisymmetric)
+            if cfg.target is not None and cfg.target.map is not None:
+                # a map's image has the body's points: its shape is placed the same way (its
+                # own fit: the body's is recomputed at every state)
+                target_fit = RigidFit(reference.points, reference.weights, self.comm,
+                                      axial=cfg.section.axisymmetric)
         # a face's exact Hausdorff distance is measured surface to surface
         # (surface_distance.py): the target's pieces, whole on every rank, and its points
         self._target_pieces: Simplices | None = None
         self._target_probes = np.zeros((0, self.cloud.gdim))
-        target_fit = None
-        if self.fit is not None and cfg.target is not None and cfg.target.map is not None:
-            # a map's image has the body's points: its shape is compared in the same placement
-            reference = self.cloud.reference()
-            target_fit = RigidFit(reference.points, reference.weights, self.comm,
-                                  axial=cfg.section.axisymmetric)
         if isinstance(self.cloud, FacetCloud) and cfg.target is not None \
                 and cfg.target.map is None:
             self.target, nodes, cells = surface_target(cfg, self.cloud, self.comm)
             self._target_pieces = Simplices(nodes[cells])
-            lo, hi = (len(nodes) * self.comm.rank // self.comm.size,
-                      len(nodes) * (self.comm.rank + 1) // self.comm.size)
-            self._target_probes = nodes[lo:hi]  # a file's vertices
+            self._target_probes = nodes[rank_share(len(nodes), self.comm)]  # a file's vertices
         else:
             self.target = target_cloud(cfg, self.cloud, self.comm)
         if target_fit is not None:

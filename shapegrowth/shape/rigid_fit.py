@@ -87,11 +87,11 @@ class RigidFit:
         assert self._last is not None, "place a cloud first"
         R, U, c, x = self._last
         G = self._sum(g.sum(axis=0))
-        out = g @ R.T - np.outer(self.m / self.M, R @ G)
         if self.axial:
             out = g.copy()
             out[:, 1] -= self.m / self.M * G[1]
             return out
+        out = g @ R.T - np.outer(self.m / self.M, R @ G)
         K = self._sum(np.einsum("qi,qj->ij", x - c, g))
         Mk = R.T @ K
         if self.dim == 3:

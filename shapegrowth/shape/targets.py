@@ -118,10 +118,14 @@ def file_cloud(nodes: np.ndarray, cells: np.ndarray, cloud: QuadratureCloud | Fa
     return _share(_placed(nodes, cells, cloud, transform, comm), cells, cloud.degree, comm)
 
 
+def rank_share(n: int, comm: MPI.Comm) -> slice:
+    """This rank's contiguous share of n items that every rank holds whole."""
+    return slice(n * comm.rank // comm.size, n * (comm.rank + 1) // comm.size)
+
+
 def _share(nodes: np.ndarray, cells: np.ndarray, degree: int, comm: MPI.Comm) -> PointCloud:
     """The cloud of this rank's contiguous share of the cells."""
-    lo, hi = (len(cells) * comm.rank) // comm.size, (len(cells) * (comm.rank + 1)) // comm.size
-    return simplex_cloud(nodes, cells[lo:hi], degree)
+    return simplex_cloud(nodes, cells[rank_share(len(cells), comm)], degree)
 
 
 def _placed(nodes: np.ndarray, cells: np.ndarray, cloud: QuadratureCloud | FacetCloud,
