@@ -255,6 +255,49 @@ def test_the_iteration_budget_is_a_stop_not_a_failure():
         assert len(result.history) <= budget
 
 
+def _history(values) -> list[Record]:
+    return [Record(k, v, v, 0.0, 0.0, 0.0, 0, 0.0, 1.0, 0.0) for k, v in enumerate(values)]
+
+
+def test_the_stopping_test_judges_a_window_not_one_step():
+    """The reachable quarter arc's stop (docs/TRADEOFFS.md): J ~ 2.6e-5 still falling 10 %
+    every 20 iterations, one step changing it by 1.3e-8 (a line search's trials above it
+    changing the best by nothing) must not stop the run; a best J that moved by less than
+    ftol_rel |J| over the whole window must, whatever the scale of J."""
+    settings = sg.DriverSettings("w", "lbfgs", 500, (1.0,), ftol_rel=1e-6, ftol_window=20)
+    driver = sg.Driver(Quadratic(comm=MPI.COMM_SELF), settings)
+    falling = 2.6e-5 * 0.9 ** (np.arange(60) / 20.0)
+    falling[-3:] = [falling[-4] - 1.3e-8, 1.0, falling[-4] - 1.3e-8]  # a slow step, a trial
+    driver.history = _history(falling)
+    assert not driver.stalled()
+    for scale in (1e-5, 1.0, 1e4):
+        flat = scale * (1.0 + 1e-8 * np.exp(-np.arange(60) / 10.0))
+        driver.history = _history(flat)
+        assert driver.stalled()
+        driver.history = _history(flat[:20])  # the window not yet full
+        assert not driver.stalled()
+    off = sg.Driver(Quadratic(comm=MPI.COMM_SELF), dataclasses.replace(settings, ftol_rel=0.0))
+    off.history = _history(flat)
+    assert not off.stalled()
+
+
+def test_mma_re_centres_a_binding_box_without_spending_the_budget():
+    """MMA in move limits asks for the point on a binding box's side again and again (from
+    2.0 to the minimum near 0.45 in boxes of 0.5: 8 of the first box's 10 evaluations at
+    1.5): the repeat re-centres the box unevaluated, so every box but the first starts
+    with its one repeated centre, and MMA standing still at the minimum is converged."""
+    problem = Quadratic(comm=MPI.COMM_SELF)
+    settings = sg.DriverSettings("m", "mma", 60, (1.0,), move_limit=0.5, restart_every=10)
+    result = sg.Driver(problem, settings).run()
+    assert result.outcome.status is sg.Status.CONVERGED, str(result.outcome)
+    assert len(result.history) < 60 and problem.calls == len(result.history)
+    totals = [r.objective for r in result.history]
+    repeats = sum(a == b for a, b in zip(totals, totals[1:]))
+    assert totals[2] == totals[3] != totals[4]  # the first box's side, then a new box
+    assert min(totals) < 1e-8
+    assert repeats < len(totals) / 3
+
+
 # ---- the typed summary ---------------------------------------------------------------------------
 def test_outcome_text_round_trips():
     for text in ("converged", "max_iterations", "failed: no equilibrium beyond 0.5000"):
@@ -276,3 +319,19 @@ def test_a_solve_returns_a_summary_that_round_trips_through_json(tmp_path):
     assert "volume_reference" in data and "evaluations" not in data
     again = sg.RunSummary.from_json(sg.RunSummary.from_json(data).to_json())
     assert again.to_json() == data
+
+
+def test_a_run_the_budget_ended_while_improving_says_so(caplog):
+    """The closing lines warn where the iteration budget, not the stopping test, ended a
+    run whose J still fell over the window (the default 100 iterations on the reachable
+    quarter arc), and stay quiet on a run that had stalled."""
+    from shapegrowth.commands.run import report_budget
+
+    falling = _history(1e-5 * 0.9 ** (np.arange(100) / 20.0))
+    with caplog.at_level("WARNING", logger="shapegrowth"):
+        report_budget(falling, 20)
+    assert "still improving" in caplog.text and "optimizer.max_iterations" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="shapegrowth"):
+        report_budget(_history(np.full(100, 1e-5)), 20)
+    assert caplog.text == ""

@@ -321,9 +321,12 @@ class OptimizerConfig:
         "iteration) or lbfgs (limited-memory quasi-Newton with bounds, O(n))", "lbfgs",
         choices=("mma", "slsqp", "lbfgs"))
     max_iterations: int = option("iteration limit", 100, ge=0)
-    ftol_rel: float = option("stop on relative objective change below this (the debiased "
-                             "shape term, which tends to 0, also stops on a change below this "
-                             "times rho_H(target, target))", 1.0e-6, ge=0)
+    ftol_rel: float = option("stop when the best objective has fallen by less than this "
+                             "times |J| over the last `ftol_window` iterations (0: never)",
+                             1.0e-6, ge=0)
+    ftol_window: int = option("the iterations over which `ftol_rel` judges progress (one "
+                              "step's change stops L-BFGS in a slow stretch, long before "
+                              "its discretisation's floor: docs/TRADEOFFS.md)", 20, ge=1)
     xtol_rel: float = option("stop on relative design change below this", 0.0, ge=0)
     move_limit: float = option("MMA works in a box of +- this around the current design "
                                "(0: the whole bounds); SLSQP always uses the whole bounds",
