@@ -125,15 +125,17 @@ def _checkpointed(path: Path) -> int:
 
 
 @pytest.mark.slow
-def test_stops_on_ftol_with_status_converged(tmp_path):
-    """SLSQP on the reachable arc: ftol_rel 1e-3 stops it after 46 iterations, at 0.1 %
-    relative shape error."""
-    assert run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.algorithm=slsqp",
-                   "--set", "optimizer.max_iterations=100", "--set",
-                   "optimizer.ftol_rel=1e-3") == 0
+def test_the_stopping_test_stops_a_reachable_arc_at_its_floor(tmp_path):
+    """The reachable quarter arc at t/L = 1/25 (docs/TRADEOFFS.md, "Where the stopping test
+    stops"): NLopt's one-step test stopped it converged after 84 iterations at 0.444 %
+    verified; the window's test lets it reach its floor (converged after 396 iterations at
+    0.0763 % verified, the known growth's own level 0.083 %) before a budget of 1000."""
+    assert run_cli("run", CONFIGS / "reachable" / "bend.yaml", "--out", tmp_path, "-q",
+                   "--set", "geometry.thickness=0.04", "--set", "objective.hausdorff.alpha=100",
+                   "--set", "optimizer.max_iterations=1000") == 0
     s = read_json(tmp_path / "summary.json")
-    assert s["status"] == "converged" and s["iterations"] < 100
-    assert s["hausdorff_final"] / s["target_size"] < 0.01
+    assert s["status"] == "converged" and 200 < s["iterations"] < 1000
+    assert s["verified"]["relative"] < 0.001
 
 
 def test_failed_state_solve_ends_the_run_with_the_best_design(tmp_path):

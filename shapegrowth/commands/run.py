@@ -305,7 +305,7 @@ def report_run(summary: RunSummary, settled: Settled, out: Path,
              "path); rho_H %.4g -> %.4g", summary.status, summary.iterations,
              _verified_text(summary.verified), 100 * rel, summary.rho_H_initial or float("nan"),
              summary.rho_H_final or float("nan"))
-    if summary.status == str(Outcome.max_iterations()):
+    if summary.status == Outcome.max_iterations():
         report_budget(history, window)
     log.info("results in %s: summary.json, history.csv, history.png, shape.png, fields.xdmf",
              out)
@@ -320,9 +320,10 @@ def report_budget(history: Sequence[Record], window: int) -> None:
     last = [r.objective for r in history if r.level == (history[-1].level if history else 0)]
     fall = window_progress(last, window)
     if fall is not None and fall > 1e-3:
-        log.warning("the iteration budget ended a run still improving (J fell %.2g %% over "
-                    "its last %d iterations): optimizer.max_iterations larger goes on towards "
-                    "the mesh's floor", 100 * fall, window)
+        log.warning("the iteration budget ended a run still improving (its best J fell from "
+                    "%.4g to %.4g over its last %d iterations): optimizer.max_iterations "
+                    "larger goes on towards the mesh's floor", min(last[:-window]), min(last),
+                    window)
 
 
 def _verified_text(verified: Verified | None) -> str:
