@@ -56,8 +56,8 @@ class FromRestEvery(Callback):
 class ProgressTolerance(Callback):
     """Newton's tolerance for the next warm state solve, loose far from the optimum and tight
     near it: ``rtol * progress / ftol_rel`` within [rtol, rtol_far], where progress is the
-    change of J between the last two evaluations relative to the scale of the optimiser's
-    stopping test (|J|, or rho_H(T, T) where that is larger: the debiased J tends to 0).
+    change of J between the last two evaluations relative to |J|, or to rho_H(T, T) where
+    that is larger (the debiased J tends to 0: ``stopping_scale``).
     A warm solve's relative tolerance is taken of the residual the design step made, so the
     error it leaves in J is about the tolerance times the step's own change of J; where J
     still changes by 1e-3 per step, 1e-6 of that is far below what the optimiser can see,

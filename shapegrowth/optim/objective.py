@@ -119,10 +119,12 @@ class Objective:
             self.divergence = self.divergence.with_alpha(alpha)
 
     def stopping_scale(self) -> float:
-        """The size of an objective change that counts as progress near the optimum, for the
-        optimiser's ftol_rel: the debiased S tends to 0 at the target, so a change relative to
-        S itself would never be small; rho_H(T, T), the value rho_H of (2.9) takes there, is
-        the scale the paper form's relative test sees.  0 for the paper form."""
+        """The size of an objective change that counts as progress near the optimum, for
+        Newton's tolerance along the run (solver.rtol_far): the debiased S tends to 0 at the
+        target, so a change relative to S itself would never be small; rho_H(T, T), the value
+        rho_H of (2.9) takes there, is the scale the paper form's relative change sees.  0 for
+        the paper form.  (The optimiser's stopping test is relative to J itself: its floor is
+        the mesh's, docs/TRADEOFFS.md.)"""
         if not self.divergence.debiased:
             return 0.0
         return self.divergence.target_self(self.target, self.comm)
