@@ -170,8 +170,8 @@ def test_the_driver_finds_a_known_minimum_and_calls_back():
 
 
 def test_the_optimisers_time_is_nlopts_own():
-    """optimizer_seconds is NLopt's own work: the problem's calls outside NLopt's loop (the
-    stopping test's scale, a new alpha: pair sums on a real problem) count with J and dJ.
+    """optimizer_seconds is NLopt's own work: the problem's calls outside NLopt's loop (a new
+    alpha: a pair sum on a real problem) count with J and dJ.
     Here each such call and each evaluation sleeps 20 ms; NLopt's L-BFGS on 4 unknowns
     takes microseconds."""
     import time
@@ -334,4 +334,11 @@ def test_a_run_the_budget_ended_while_improving_says_so(caplog):
     caplog.clear()
     with caplog.at_level("WARNING", logger="shapegrowth"):
         report_budget(_history(np.full(100, 1e-5)), 20)
+    assert caplog.text == ""
+    # a new alpha changes what J measures: a stalled last stage is not judged against the
+    # stage before it
+    stages = _history(np.r_[np.linspace(1.0, 0.5, 90), np.full(15, 0.4)])
+    stages[90:] = [dataclasses.replace(r, alpha=2.0) for r in stages[90:]]
+    with caplog.at_level("WARNING", logger="shapegrowth"):
+        report_budget(stages, 20)
     assert caplog.text == ""

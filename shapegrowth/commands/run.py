@@ -315,9 +315,13 @@ def report_run(summary: RunSummary, settled: Settled, out: Path,
 
 def report_budget(history: Sequence[Record], window: int) -> None:
     """Where the budget, not the stopping test, ended a run that was still improving: the
-    last level's J over the stopping test's window (a quarter arc's default 100 iterations
+    last stage's J over the stopping test's window (a quarter arc's default 100 iterations
     end at 0.37 % verified, its floor 0.076 % after 396: docs/TRADEOFFS.md)."""
-    last = [r.objective for r in history if r.level == (history[-1].level if history else 0)]
+    if not history:
+        return
+    # the last stage's J only: a new level or alpha changes what J measures
+    last = [r.objective for r in history
+            if (r.level, r.alpha) == (history[-1].level, history[-1].alpha)]
     fall = window_progress(last, window)
     if fall is not None and fall > 1e-3:
         log.warning("the iteration budget ended a run still improving (its best J fell from "

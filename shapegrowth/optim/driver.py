@@ -110,11 +110,11 @@ class Driver:
         self._callback_time = 0.0
         self._end = 0  # evaluations allowed so far (the current stage's end)
         self._stage_start = 0  # the current stage's first evaluation
-        self._over_budget = False
-        self._converged = False  # the window's test stopped the stage
-        self._repeat = False  # MMA asked for the point it was just given (module doc)
+        # a stop of ours, pending until NLopt returns: "budget" (the stage's evaluations are
+        # spent), "converged" (the window's test), "repeat" (MMA asked for the point it was
+        # just given: module doc)
+        self._stop: str | None = None
         self._chunk_last: np.ndarray | None = None  # the last point of this MMA box
-        self._boxed = False  # MMA in move limits
 
     def local(self, x: np.ndarray) -> np.ndarray:
         """This rank's part of a design vector of the whole body (such as a result's best)."""
@@ -135,8 +135,8 @@ class Driver:
 
         if self.failure is not None:  # L-BFGS may call once more after a stop
             raise nlopt.ForcedStop(self.failure)
-        if self._over_budget or self._converged or self._repeat:
-            raise nlopt.ForcedStop("stopped")
+        if self._stop is not None:
+            raise nlopt.ForcedStop(self._stop)
         k = len(self.history)
         try:
             return self._objective_body(x, grad)
@@ -146,8 +146,8 @@ class Driver:
             # a call after a stop of ours may see that stop still pending (a SystemError
             # from the first C function called: disk_cone_from_axi, the call after the
             # budget's stop at iteration 40): the stop stands, it is no failure
-            if self._over_budget or self._converged or self._repeat:
-                raise nlopt.ForcedStop("stopped") from None
+            if self._stop is not None:
+                raise nlopt.ForcedStop(self._stop) from None
             if self.failure is None:
                 self.failure = f"at iteration {k}: {type(err).__name__}: {err}"
                 log.error("%s", self.failure)
@@ -160,10 +160,10 @@ class Driver:
         k = len(self.history)
         if k >= self._end:
             # NLopt's L-BFGS may ask for one evaluation past its maxeval: the budget is ours
-            self._over_budget = True
+            self._stop = "budget"
             raise nlopt.ForcedStop("iteration budget spent")
         if self._chunk_last is not None and np.array_equal(x, self._chunk_last):
-            self._repeat = True  # MMA's box binds: re-centre it, spend nothing (module doc)
+            self._stop = "repeat"  # MMA's box binds: re-centre it, spend nothing (module doc)
             raise nlopt.ForcedStop("the same point again")
         if self._boxed:
             self._chunk_last = x.copy()
@@ -197,12 +197,17 @@ class Driver:
             cb.evaluated(step)
         self._callback_time += time.perf_counter() - tic
         if self.stalled():
-            self._converged = True
+            self._stop = "converged"
             log.info("converged: the best J fell by less than %g of |J| over the last %d "
                      "iterations (optimizer.ftol_rel, optimizer.ftol_window)",
                      self.settings.ftol_rel, self.settings.ftol_window)
             raise nlopt.ForcedStop("converged")
         return f
+
+    @property
+    def _boxed(self) -> bool:
+        """MMA in move limits (module doc)."""
+        return self.settings.algorithm == "mma" and self.settings.move_limit > 0
 
     def stalled(self) -> bool:
         """The stopping test (module doc): this stage's best J has fallen by at most
@@ -304,8 +309,7 @@ class Driver:
         # SLSQP and L-BFGS control their steps by a line search, and a restart would discard
         # their quasi-Newton model (beam_wave, 100 SLSQP iterations: 2.1 % shape error on the
         # whole bounds, 12-14 % in boxes): move limits are for MMA.
-        limit = s.move_limit if s.algorithm == "mma" else 0.0
-        self._boxed = limit > 0
+        limit = s.move_limit if self._boxed else 0.0
         while len(self.history) < end:
             box_lo = np.maximum(lo, x - limit) if limit > 0 else lo
             box_hi = np.minimum(hi, x + limit) if limit > 0 else hi
@@ -327,8 +331,8 @@ class Driver:
                 code = opt.last_optimize_result()
             except _nlopt_stops(nlopt):
                 # a stop from the callback; L-BFGS reports ours as a generic "nlopt failure"
-                if self._repeat:
-                    self._repeat = False
+                stop, self._stop = self._stop, None  # the next box or stage starts afresh
+                if stop == "repeat":
                     assert self._chunk_last is not None
                     x = self._chunk_last
                     code = nlopt.MAXEVAL_REACHED if _on_box(x, box_lo, box_hi, lo, hi) else \
@@ -336,10 +340,9 @@ class Driver:
                     if code == nlopt.XTOL_REACHED or len(self.history) == start + 1:
                         break
                     continue
-                if self._converged:
-                    self._converged = False  # the next stage (a new alpha) starts afresh
+                if stop == "converged":
                     code = nlopt.FTOL_REACHED
-                elif not self._over_budget:
+                elif stop is None:
                     if self.failure is not None:
                         return x, nlopt.FORCED_STOP
                     if len(self.history) == start:
@@ -351,7 +354,6 @@ class Driver:
                                 "(round-off); the best design so far is kept")
                     code = nlopt.ROUNDOFF_LIMITED
                 else:
-                    self._over_budget = False
                     code = nlopt.MAXEVAL_REACHED
                 return (self.best[1] if self.best is not None else x), code
             at_box = limit > 0 and _on_box(x, box_lo, box_hi, lo, hi)

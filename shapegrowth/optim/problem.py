@@ -207,8 +207,8 @@ class ReducedFunctional:
         self.model.state.warm_rtol = rtol
 
     def stopping_scale(self) -> float:
-        """The scale of an absolute stopping test on J (0: none; see Objective): rho_H(T, T)
-        at the current alpha, a pair sum (timed as rho_H's)."""
+        """The scale of J's progress for Newton's tolerance along the run (0: |J| alone; see
+        Objective): rho_H(T, T) at the current alpha, a pair sum (timed as rho_H's)."""
         with self.timer("hausdorff"):
             return self.objective.stopping_scale()
 
