@@ -52,6 +52,12 @@ CASES = {
     "stability penalty": (BEAM, ["boundary.clamp=[x1_min, x1_max]",
                                  "optimizer.stability.min_eigenvalue=0.5",
                                  "optimizer.stability.modes=3", "optimizer.stability.weight=100"]),
+    # out of core (mumps_ooc): the state's factors, which the adjoint reuses, and the
+    # eigensolve's
+    "stability penalty, factors out of core": (BEAM, [
+        "boundary.clamp=[x1_min, x1_max]", "optimizer.stability.min_eigenvalue=0.5",
+        "optimizer.stability.modes=3", "optimizer.stability.weight=100",
+        "solver.linear=mumps_ooc"]),
     "stability penalty, free angles": (BEAM, [
         "boundary.clamp=[x1_min, x1_max]", "growth.frame=free",
         "growth.angles.initial=[0.4,1.0,0.2]", "optimizer.stability.min_eigenvalue=0.5",
@@ -88,6 +94,7 @@ CASES = {
 }
 MPI_CASES = {"eigenvalues", "eigenvalues+free angles", "2D free frame",
              "X1-X3 section, plane stress", "axisymmetric", "stability penalty",
+             "stability penalty, factors out of core",
              "compare the top face", "2D compare the top edge", "free body fitted, top face",
              "axisymmetric, compare the top face"}
 

@@ -81,15 +81,22 @@ def test_past_eulers_strain_the_switch_finds_the_buckled_bar(shared_tmp):
 
 @pytest.mark.mpi
 def test_the_ldlt_factorisation_watches_the_path_by_its_inertia(shared_tmp):
-    """With the LDL^T (solver.linear mumps_ldlt) the path is watched by the factorisation's
-    inertia: the same stability at the end, and the loss placed at the first load step found
-    unstable (at or after the crossing the eigenvalues give)."""
+    """With the LDL^T (solver.linear mumps_ldlt, and mumps_ooc) the path is watched by the
+    factorisation's inertia: the same stability at the end, and the loss placed at the first
+    load step found unstable (at or after the crossing the eigenvalues give)."""
     strain = 1.25 * EULER_STRAIN
     lu = _solve(shared_tmp, strain, "solver.linear=mumps", name="lu")["stability"]
     ldlt = _solve(shared_tmp, strain, "solver.linear=mumps_ldlt", name="ldlt")["stability"]
     assert ldlt["negative"] == lu["negative"] == 1
     assert ldlt["lowest"] == pytest.approx(lu["lowest"], rel=1e-6)
     assert ldlt["kind"] == "bifurcation" and ldlt["lost_at"] >= lu["lost_at"]
+    # out of core (mumps_ooc; the eigensolve's factor out of core too): the same path, the
+    # same loss, the same end
+    ooc = _solve(shared_tmp, strain, "solver.linear=mumps_ooc", name="ooc")
+    assert ooc["stability"]["negative"] == 1 and ooc["stability"]["lost_at"] == ldlt["lost_at"]
+    assert ooc["stability"]["lowest"] == pytest.approx(ldlt["lowest"], rel=1e-9)
+    assert ooc["linear_solver"]["preset"] == "mumps_ooc"
+    assert ooc["linear_solver"]["fallbacks"] == 0
 
 
 @pytest.mark.mpi

@@ -14,6 +14,13 @@ Presets (the PETSc options of each, without a prefix, are in :func:`preset_optio
     contribution blocks (``icntl_35 2``, ``icntl_37 1``, ``cntl_7`` = 1e-8) as the
     preconditioner of GMRES to ``ksp_rtol`` 1e-10: the factor compressed where the wall is
     thin and the blocks far apart, the Krylov iterations make up what it drops.
+``mumps_ooc``
+    ``mumps_ldlt`` with the factor out of core (``icntl_22 1``): MUMPS writes the factor to
+    files as it computes it and reads it back at each solve, so that a process holds its
+    working fronts, not the factor (scene 1's 149k-DOF tangent: 341 MB in core against 972).
+    The files go to the directory ``MUMPS_OOC_TMPDIR`` names (MUMPS's own variable; /tmp
+    where it is unset), which must be on disk: in a memory file system (tmpfs) the factor
+    costs the same memory, and the solver says so (:func:`out_of_core_directory`).
 ``gamg``
     PETSc's smoothed-aggregation multigrid with the rigid-body near-nullspace (the
     matrix's block size is the space's), tuned for elasticity as the PETSc manual's
@@ -24,20 +31,24 @@ Presets (the PETSc options of each, without a prefix, are in :func:`preset_optio
     hypre's BoomerAMG with nodal coarsening and vector interpolation (the near-nullspace),
     under GMRES.
 
-``auto`` picks one from the model's kind and size (:func:`choose`).  A failed linear solve
-(a Krylov breakdown, divergence, a zero pivot) is logged in one line with PETSc's reason and
-repeated with ``mumps`` (:data:`EXACT`); after :data:`GIVE_UP_AFTER` such failures in a
-row, a model's state solves use ``mumps`` (said in one line).  The fallbacks are counted
-per run (:func:`counting`, summary.json ``linear_solver``).
+``auto`` picks one from the model's kind and size (:func:`choose`): LU for 2D models and small
+3D ones, LDL^T from :data:`AUTO_LDLT_DOFS` state DOFs, out of core from :data:`AUTO_OOC_DOFS`.
+A failed linear solve (a Krylov breakdown, divergence, a zero pivot) is logged in one line with
+PETSc's reason and repeated with ``mumps`` (:data:`EXACT`); after :data:`GIVE_UP_AFTER` such
+failures in a row, a model's state solves use ``mumps`` (said in one line).  The fallbacks are
+counted per run (:func:`counting`, summary.json ``linear_solver``).
 """
 
 from __future__ import annotations
 
 import contextvars
+import functools
 import logging
+import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from petsc4py import PETSc
@@ -46,7 +57,7 @@ from ..config import ConfigError
 
 log = logging.getLogger(__name__)
 
-PRESETS = ("mumps", "mumps_ldlt", "mumps_blr", "gamg", "hypre")
+PRESETS = ("mumps", "mumps_ldlt", "mumps_ooc", "mumps_blr", "gamg", "hypre")
 CHOICES = (*PRESETS, "auto")
 ITERATIVE = ("mumps_blr", "gamg", "hypre")  # a Krylov method outside
 MULTIGRID = ("gamg", "hypre")  # need the rigid-body near-nullspace
@@ -63,6 +74,12 @@ EXACT: dict[str, object] = {"ksp_type": "preonly", "pc_type": "lu",
 # DOFs); from there on the LDL^T factorisation, the same states to round-off with half the
 # factor and 0.6x its time (docs/PERFORMANCE.md, "Linear solvers").
 AUTO_LDLT_DOFS = 20_000
+# ... and from this many on, the LDL^T with its factor out of core: at scene 1's 149k DOFs it
+# cost 1.12x the time of a solve from rest and took its peak from 3.93 GB to 1.65 GB (both
+# ranks); below, the in-core factor fits this 24 GB machine many times over (the tube's 231k:
+# 1.3 GB), and above it the factor outgrows the rest of the model (docs/PERFORMANCE.md,
+# "Out of core").
+AUTO_OOC_DOFS = 500_000
 
 
 def preset_options(name: str, role: str) -> dict[str, object]:
@@ -81,6 +98,10 @@ def preset_options(name: str, role: str) -> dict[str, object]:
     if name == "mumps_ldlt":
         return {"ksp_type": "preonly", "pc_type": "cholesky",
                 "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_14": 30}
+    if name == "mumps_ooc":
+        return {"ksp_type": "preonly", "pc_type": "cholesky",
+                "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_14": 30,
+                "mat_mumps_icntl_22": 1}
     if name == "mumps_blr":
         return {**krylov, "ksp_max_it": 200, "pc_type": "cholesky",
                 "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_14": 30,
@@ -119,9 +140,49 @@ def _filter_options(name: str) -> dict[str, object]:
 def missing_package(name: str) -> str | None:
     """The external package preset ``name`` needs and this PETSc lacks (None: all there);
     every preset needs MUMPS at least for the LU its failed solves fall back to."""
-    need = {"mumps": "mumps", "mumps_ldlt": "mumps", "mumps_blr": "mumps",
+    need = {"mumps": "mumps", "mumps_ldlt": "mumps", "mumps_ooc": "mumps", "mumps_blr": "mumps",
             "gamg": "mumps", "hypre": "hypre"}[name]
     return None if has_package(need) else need
+
+
+def out_of_core_directory() -> Path:
+    """Where ``mumps_ooc`` writes its factors: ``MUMPS_OOC_TMPDIR``, else /tmp (MUMPS's own
+    rule).  A directory that is missing or not writable is refused in one line; one in a
+    memory file system is said in one line (once), as the factor then saves no memory."""
+    path = Path(os.environ.get("MUMPS_OOC_TMPDIR") or "/tmp")
+    if not (path.is_dir() and os.access(path, os.W_OK | os.X_OK)):
+        raise ConfigError([f"solver.linear: mumps_ooc writes its factor to {path} "
+                           "(MUMPS_OOC_TMPDIR), which is not a writable directory; set "
+                           "MUMPS_OOC_TMPDIR to one on disk"])
+    _say_if_in_memory(str(path.resolve()))
+    return path
+
+
+@functools.cache
+def _say_if_in_memory(path: str) -> None:
+    if file_system(path) in ("tmpfs", "ramfs"):
+        log.warning("solver.linear: mumps_ooc writes its factor to %s, which is in memory "
+                    "(%s): it saves no memory there; set MUMPS_OOC_TMPDIR to a directory "
+                    "on disk", path, file_system(path))
+
+
+def file_system(path: str, table: str = "/proc/mounts") -> str:
+    """The type of the file system ``path`` (absolute) lies on: that of its longest mount
+    point in the mount ``table`` ("" where none is listed or the table cannot be read)."""
+    best, kind = "", ""
+    try:
+        with open(table, encoding="utf-8") as mounts:
+            for line in mounts:
+                fields = line.split()
+                if len(fields) < 3:
+                    continue
+                point = fields[1].replace("\\040", " ")
+                inside = path == point or path.startswith(point.rstrip("/") + "/")
+                if inside and len(point) >= len(best):
+                    best, kind = point, fields[2]
+    except OSError:
+        return ""
+    return kind
 
 
 def has_package(name: str) -> bool:
@@ -135,7 +196,8 @@ def choose(requested: str, dofs: int, dim: int) -> str:
     preset whose package this PETSc lacks replaced, with one line, by the nearest one it has."""
     name = requested
     if requested == "auto":
-        name = "mumps" if dofs < AUTO_LDLT_DOFS or dim < 3 else "mumps_ldlt"
+        name = ("mumps" if dofs < AUTO_LDLT_DOFS or dim < 3 else
+                "mumps_ldlt" if dofs < AUTO_OOC_DOFS else "mumps_ooc")
     missing = missing_package(name)
     if missing is not None:
         fallback = "mumps_ldlt" if missing == "hypre" else None
@@ -145,6 +207,8 @@ def choose(requested: str, dofs: int, dim: int) -> str:
         log.warning("solver.linear: %s needs PETSc with %s, which this PETSc lacks; using %s",
                     name, missing, fallback)
         name = fallback
+    if name == "mumps_ooc":
+        out_of_core_directory()
     return name
 
 

@@ -4,12 +4,12 @@ Along a growth path (:class:`PathWatch`, called at each converged load step of a
 rest) the lowest eigenvalue is followed; where it first crosses zero the path has met a
 bifurcation, and ``lost_at`` is the load fraction of the crossing, linear between the two
 steps around it.  Where the state's own factorisation is an LDL^T (``solver.linear``
-mumps_ldlt, mumps_blr, and auto on large 3D models) its inertia comes free with every Newton
-step: the path is then watched by it, and the eigenproblem is solved only at the first step,
-where the inertia turns negative and at the end; ``lost_at`` is then the first load step found
-unstable (the crossing lies within the step before it).  A path that ends short of its growth
-with its lowest eigenvalue fallen to near zero (below ``LIMIT_RATIO`` of its first value) met a
-limit point, there.
+mumps_ldlt, mumps_ooc, mumps_blr, and auto on large 3D models) its inertia comes free with
+every Newton step: the path is then watched by it, and the eigenproblem is solved only at the
+first step, where the inertia turns negative and at the end; ``lost_at`` is then the first
+load step found unstable (the crossing lies within the step before it).  A path that ends
+short of its growth with its lowest eigenvalue fallen to near zero (below ``LIMIT_RATIO`` of
+its first value) met a limit point, there.
 
 Past a bifurcation the path from rest goes on along the equilibrium it followed, now unstable
 (``solver.branch: follow``), or leaves it for a stable one (``switch``), as a real body with

@@ -84,6 +84,11 @@ class StabilityProblem:
         from slepc4py import SLEPc
 
         self.state, self.count = state, count
+        # Where the state's factor is out of core (mumps_ooc: memory before time), so is this
+        # one: in core it would set the solve's peak (scene 1's 149k DOFs on 2 ranks, from
+        # rest: 3.93 GB with both in core, mumps_ldlt; 2.74 GB with the state's alone out of
+        # core; 1.65 GB with both: docs/PERFORMANCE.md, "Out of core")
+        out_of_core = state.linear == "mumps_ooc"
         V = state.V
         u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
         dx = ufl.Measure("dx", domain=V.mesh, metadata={"quadrature_degree":
@@ -99,6 +104,7 @@ class StabilityProblem:
             "st_ksp_type": "preonly", "st_pc_type": "cholesky",
             "st_pc_factor_mat_solver_type": "mumps",
             "st_mat_mumps_icntl_24": 1,  # a singular K (at a threshold): null pivots kept
+            **({"st_mat_mumps_icntl_22": 1} if out_of_core else {}),
         })
         self.eps = SLEPc.EPS().create(V.mesh.comm)
         self.eps.setOptionsPrefix(self.options.prefix)
