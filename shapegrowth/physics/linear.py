@@ -99,9 +99,7 @@ def preset_options(name: str, role: str) -> dict[str, object]:
         return {"ksp_type": "preonly", "pc_type": "cholesky",
                 "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_14": 30}
     if name == "mumps_ooc":
-        return {"ksp_type": "preonly", "pc_type": "cholesky",
-                "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_14": 30,
-                "mat_mumps_icntl_22": 1}
+        return {**preset_options("mumps_ldlt", role), "mat_mumps_icntl_22": 1}
     if name == "mumps_blr":
         return {**krylov, "ksp_max_it": 200, "pc_type": "cholesky",
                 "pc_factor_mat_solver_type": "mumps", "mat_mumps_icntl_14": 30,
@@ -160,10 +158,11 @@ def out_of_core_directory() -> Path:
 
 @functools.cache
 def _say_if_in_memory(path: str) -> None:
-    if file_system(path) in ("tmpfs", "ramfs"):
+    kind = file_system(path)
+    if kind in ("tmpfs", "ramfs"):
         log.warning("solver.linear: mumps_ooc writes its factor to %s, which is in memory "
                     "(%s): it saves no memory there; set MUMPS_OOC_TMPDIR to a directory "
-                    "on disk", path, file_system(path))
+                    "on disk", path, kind)
 
 
 def file_system(path: str, table: str = "/proc/mounts") -> str:
