@@ -196,6 +196,24 @@ def test_the_out_of_core_factor_goes_where_mumps_ooc_tmpdir_says(monkeypatch, tm
         "memory (tmpfs): it saves no memory there; set MUMPS_OOC_TMPDIR to a directory on disk"]
 
 
+def test_the_out_of_core_factors_are_removed_when_the_process_ends(tmp_path):
+    """A solve by mumps_ooc in a process of its own writes its factors to a directory of its
+    own in MUMPS_OOC_TMPDIR, and nothing is left there when it ends (MUMPS leaves the files
+    of the factors still held at exit)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "MUMPS_OOC_TMPDIR": str(tmp_path)}
+    done = subprocess.run([sys.executable, "-m", "shapegrowth", "solve", str(BEND), "-q",
+                           "--out", str(tmp_path / "out"), "--set", "solver.linear=mumps_ooc",
+                           "--set", f"mesh.cache_dir={tmp_path / 'meshes'}"],
+                          env=env, capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr
+    assert read_json(tmp_path / "out" / "summary.json")["linear_solver"]["preset"] == "mumps_ooc"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["meshes", "out"]
+
+
 def test_the_file_system_of_a_path_is_its_longest_mount_points(tmp_path):
     table = tmp_path / "mounts"
     table.write_text("/dev/vda / ext4 rw 0 0\ntmpfs /tmp tmpfs rw 0 0\n"
