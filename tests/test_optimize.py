@@ -4,6 +4,7 @@ outputs, and bad input."""
 from __future__ import annotations
 
 import csv
+import os
 import signal
 import subprocess
 import time
@@ -92,8 +93,10 @@ def test_resume_after_sigkill_ends_identical(rtol_far, cells, linear, tmp_path):
     assert run_cli("run", ARC, "--out", ref, "-q", *sets) == 0
 
     killed = tmp_path / "killed"
+    # a killed process leaves its out-of-core factors (mumps_ooc): here, not in /tmp
+    env = {**os.environ, "MUMPS_OOC_TMPDIR": str(tmp_path)}
     proc = subprocess.Popen([str(BIN / "shapegrowth"), "run", str(ARC), "--out", str(killed),
-                             "-q", *sets], cwd=ROOT, stdout=subprocess.DEVNULL,
+                             "-q", *sets], cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     deadline = time.time() + 240
     while time.time() < deadline and _checkpointed(killed / "checkpoint.h5") < 3:
