@@ -6,6 +6,9 @@ to the exact factorisation, is logged and counted in summary.json."""
 from __future__ import annotations
 
 import logging
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -200,10 +203,6 @@ def test_the_out_of_core_factors_are_removed_when_the_process_ends(tmp_path):
     """A solve by mumps_ooc in a process of its own writes its factors to a directory of its
     own in MUMPS_OOC_TMPDIR, and nothing is left there when it ends (MUMPS leaves the files
     of the factors still held at exit)."""
-    import os
-    import subprocess
-    import sys
-
     env = {**os.environ, "MUMPS_OOC_TMPDIR": str(tmp_path)}
     done = subprocess.run([sys.executable, "-m", "shapegrowth", "solve", str(BEND), "-q",
                            "--out", str(tmp_path / "out"), "--set", "solver.linear=mumps_ooc",

@@ -163,8 +163,9 @@ def out_of_core_directory() -> Path:
         raise ConfigError([f"solver.linear: mumps_ooc writes its factor to {path} "
                            "(MUMPS_OOC_TMPDIR), which is not a writable directory; set "
                            "MUMPS_OOC_TMPDIR to one on disk"])
-    _say_if_in_memory(str(path.resolve()))
-    own = _own_directory(str(path.resolve()))
+    base = str(path.resolve())
+    _say_if_in_memory(base)
+    own = _own_directory(base)
     os.environ["MUMPS_OOC_TMPDIR"] = own
     return Path(own)
 
