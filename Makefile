@@ -14,13 +14,13 @@ export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 export OMPI_MCA_rmaps_base_oversubscribe := 1
 MPIRUN := mpirun -n $(NP)
 
-.PHONY: reachable setup run bend test test-all test-debian13 test-dolfinx011 lint test-serial test-mpi test-serial-slow test-mpi-slow notebooks bench reproduce reproduce-compare reference-docs clean help
+.PHONY: reachable setup run bend test test-all test-hex test-debian13 test-dolfinx011 lint test-serial test-mpi test-serial-slow test-mpi-slow notebooks bench reproduce reproduce-compare reference-docs clean help
 
 help:
 	@echo "make run    - the default scene end to end (installs what is missing)"
 	@echo "make bend   - the forward model alone: a beam bent into a half circle"
 	@echo "make test   - the fast tier: lint, types, tests serial and under mpirun -n $(NP) (minutes)"
-	@echo "make test-all - the rest: the slow tests serial and under mpirun, and the notebooks"
+	@echo "make test-all - the rest: the slow tests serial and under mpirun, the fast tier on hexahedra (test-hex), the notebooks"
 	@echo "make test-debian13 - the fast tier in a Debian 13 root (dolfinx 0.9; root, debootstrap)"
 	@echo "make test-dolfinx011 - the fast tier on dolfinx 0.11's pip wheels in that root (root)"
 	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
@@ -52,7 +52,15 @@ test: setup
 	@$(MAKE) --no-print-directory lint test-serial test-mpi
 
 test-all: setup
-	@$(MAKE) --no-print-directory test-serial-slow test-mpi-slow notebooks
+	@$(MAKE) --no-print-directory test-serial-slow test-mpi-slow test-hex notebooks
+
+# The fast tier again with every config on quadrilaterals and hexahedra (mesh.cells: hex
+# where a test does not name its cells; tests/conftest.py), serially and on $(NP) ranks; the
+# tests marked `simplex` assert something of simplices and are left out
+test-hex: setup
+	SHAPEGROWTH_TEST_CELLS=hex SHAPEGROWTH_FAST_LIMIT_S=0 $(PYTEST) -m "not slow and not simplex" tests
+	@SHAPEGROWTH_TEST_CELLS=hex SHAPEGROWTH_FAST_LIMIT_S=0 OPENBLAS_NUM_THREADS=1 timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(PYTEST) --color=no -m "mpi and not slow and not simplex" tests \
+	  || { tail -n 40 .cache/rank-*.log; exit 1; }
 
 # The whole suite again inside a Debian 13 root (dolfinx 0.9.0, PETSc 3.22), built once and
 # cached in ~/.cache/shapegrowth/debian13; skipped with one line where it cannot run

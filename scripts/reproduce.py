@@ -216,15 +216,24 @@ def _how(s: RunSummary) -> str:
     refined = (f"refined x{v.refine}, from rest, {v.dofs} DOFs" if v.relative is not None
                else f"refined x{v.refine}: {v.status}")
     if v.lifted is None:
-        return refined + (" (another equilibrium than the run's)" if v.branch_changed else "")
+        return (refined + (" (another equilibrium than the run's)" if v.branch_changed else "")
+                + _unstable(v.stability))
     lifted = v.lifted
     if lifted.relative is None:
         return f"lift to 3D {lifted.status} ({lifted.dofs} DOFs); the section {refined}: " \
                f"{_pc(v.relative)}"
     leaves = ("" if lifted.departure is None else
               f"; the 3D body leaves the section by up to {_pc(lifted.departure)}")
-    return (f"lifted to 3D ({lifted.config}, {lifted.dofs} DOFs, from rest){leaves}; the "
-            f"section {refined}: {_pc(v.relative)}")
+    return (f"lifted to 3D ({lifted.config}, {lifted.dofs} DOFs, from rest)"
+            f"{_unstable(lifted.stability)}{leaves}; the section {refined}: {_pc(v.relative)}")
+
+
+def _unstable(stability) -> str:
+    """An unstable verified state is no shape a real body keeps: said beside its number."""
+    if stability is None or stability.stable:
+        return ""
+    where = "" if stability.lost_at is None else f" since {stability.lost_at:.3g} of the growth"
+    return f", **unstable**{where}"
 
 
 def _seconds(s: RunSummary) -> str:

@@ -41,6 +41,41 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
         session.exitstatus = 1
 
 
+# The hexahedral leg (`make test-hex`): SHAPEGROWTH_TEST_CELLS=hex makes every config the
+# suite builds in this process default to `mesh.cells: hex` (a config or --set that names
+# `mesh.cells` keeps its own), so each test that builds a model runs again on quadrilaterals
+# and hexahedra.  Tests whose assertion is about simplices (a refinement by splitting, a
+# reference value measured on tetrahedra) are marked `simplex` and left out of that leg.
+TEST_CELLS = os.environ.get("SHAPEGROWTH_TEST_CELLS", "simplex")
+if TEST_CELLS not in ("simplex", "hex"):
+    raise pytest.UsageError(f"SHAPEGROWTH_TEST_CELLS={TEST_CELLS!r}: use simplex or hex")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    if TEST_CELLS != "hex":
+        return
+    from shapegrowth.config import loading
+
+    plain = loading.apply_overrides
+
+    def with_cells(raw, overrides, errors):
+        raw = plain(raw, overrides, errors)
+        if isinstance(raw.get("mesh"), dict):
+            raw["mesh"].setdefault("cells", TEST_CELLS)
+        return raw
+
+    loading.apply_overrides = with_cells
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    if TEST_CELLS != "hex":
+        return
+    skip = pytest.mark.skip(reason="about simplices (SHAPEGROWTH_TEST_CELLS=hex)")
+    for item in items:
+        if "simplex" in item.keywords:
+            item.add_marker(skip)
+
+
 @pytest.fixture
 def shared_tmp(tmp_path: Path) -> Path:
     """A temporary folder that every MPI rank sees (rank 0's)."""

@@ -9,7 +9,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from conftest import CONFIGS
+from conftest import CONFIGS, TEST_CELLS
 from mpi4py import MPI
 
 import shapegrowth as sg
@@ -26,8 +26,8 @@ SQUARE = CONFIGS / "tiny" / "square_disk.yaml"
 # ---- a config cannot exist invalid or unresolved ---------------------------------------------
 def test_a_config_made_in_python_is_resolved_like_a_loaded_one():
     cfg = sg.Config(name="plate", geometry=GeometryConfig(kind="rectangle", side=4.0),
-                    mesh=MeshConfig(size=1.0), boundary=BoundaryConfig(clamp="rigid"),
-                    model=ModelConfig(dim=2))
+                    mesh=MeshConfig(size=1.0, cells=TEST_CELLS),  # the leg's loaded default
+                    boundary=BoundaryConfig(clamp="rigid"), model=ModelConfig(dim=2))
     assert cfg.growth.eigenvalues.initial == (1.0, 1.0)
     assert cfg.growth.eigenvalues.design == (1, 2)
     assert cfg.growth.angles.bounds == ((0.0, 2 * np.pi),)

@@ -94,8 +94,13 @@ def test_the_lattice_of_a_face_tiles_it_and_follows_the_displacement(config, set
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("config, sets, dim", [(BEAM, [], 3), (BEAM, ["mesh.cells=hex"], 3),
-                                                (SQUARE, [], 2), (TUBE, [], 3)])
+@pytest.mark.parametrize("config, sets, dim", [
+    (BEAM, [], 3), (BEAM, ["mesh.cells=hex"], 3), (SQUARE, [], 2),
+    # the tiny tube's P1 on its own tetrahedra; on 27-node hexahedra a degree-1 displacement is
+    # subparametric (bilinear in the cell's coordinates, the wall quadratic in them: u = 0.3 X
+    # is missed by 2.8e-3), so the curved hexahedra carry Q2
+    pytest.param(TUBE, [], 3, marks=pytest.mark.simplex),
+    (TUBE, ["mesh.cells=hex", "model.degree=2"], 3)])
 def test_a_uniform_stretch_scales_points_and_areas(config, sets, dim):
     """u = (s - 1) X: the face's points move to s X and its area grows by s^(dim - 1)."""
     model, cloud = _cloud(config, sets)

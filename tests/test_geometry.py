@@ -57,8 +57,9 @@ def test_geometry_volume_boundaries_and_placement(kind, shared_tmp):
     one = dolfinx.fem.Constant(mesh, 1.0)
     curved = kind in ("tube", "annulus", "cylinder_shell")  # polygonal circles
     rel = 0.02 if curved else 1e-12
-    assert integrate(one * ufl.dx) == pytest.approx(volume, rel=rel)
-    ds = ufl.Measure("ds", domain=mesh, subdomain_data=domain.facet_tags)
+    exact = {"quadrature_degree": 6}  # a second order hexahedron's det J (UFL's guess: 125 points)
+    assert integrate(one * ufl.dx(domain=mesh, metadata=exact)) == pytest.approx(volume, rel=rel)
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=domain.facet_tags, metadata=exact)
     total = 0.0
     for name in BOUNDARIES[kind]:
         area = integrate(one * ds(domain.boundaries[name]))
@@ -66,7 +67,8 @@ def test_geometry_volume_boundaries_and_placement(kind, shared_tmp):
         if name in areas:
             assert area == pytest.approx(areas[name], rel=rel), name
         total += area
-    assert total == pytest.approx(integrate(one * ufl.ds), rel=1e-12)  # every facet named once
+    every = integrate(one * ufl.ds(domain=mesh, metadata=exact))
+    assert total == pytest.approx(every, rel=1e-12)  # every facet named once
     box_lo, box_hi = body_box(mesh)
     sagitta = size**2 / 2 if curved else 1e-9  # a chord of length h misses a unit circle by ~h^2/8
     assert box_lo == pytest.approx(lo, abs=sagitta)
@@ -75,13 +77,14 @@ def test_geometry_volume_boundaries_and_placement(kind, shared_tmp):
 
 @pytest.mark.mpi
 def test_layers_through_the_wall(shared_tmp):
-    """The box's thickness is split into exactly `layers` elements: vertices on 3 planes."""
+    """The box's thickness is split into exactly `layers` elements: vertices on 3 planes (and
+    a second order mesh's mid-nodes between them: 5 on hexahedra)."""
     cfg = config("box", {"length": 0.4, "width": 0.1, "thickness": 0.02}, 0.05, shared_tmp,
                  layers=2)
     mesh = load_domain(cfg).mesh
     z = np.unique(np.round(mesh.geometry.x[:, 2], 12))
     planes = np.unique(np.concatenate(mesh.comm.allgather(z)))
-    assert planes == pytest.approx([-0.01, 0.0, 0.01])
+    assert planes == pytest.approx(np.linspace(-0.01, 0.01, 2 * compat.geometry_degree(mesh) + 1))
 
 
 RINGS = {  # kind: (parameters, the clamped face's axis)
@@ -104,8 +107,9 @@ def test_a_walls_ring_follows_mesh_size_and_layers(kind, size, layers, shared_tm
     face = np.unique(face, axis=0)
     radii = np.unique(np.round(np.linalg.norm(np.delete(face, axis, axis=1), axis=1), 6))
     around = 4 * math.ceil(max(8, round(2 * math.pi / size)) / 4)
-    assert radii == pytest.approx(np.linspace(0.95, 1.0, layers + 1))
-    assert len(face) == around * (layers + 1)
+    order = compat.geometry_degree(mesh)  # a second order mesh's mid-nodes: between the vertices
+    assert radii == pytest.approx(np.linspace(0.95, 1.0, order * layers + 1))
+    assert len(face) == order * around * (order * layers + 1)
 
 
 def test_cache_is_keyed_by_parameters(tmp_path):
@@ -250,6 +254,7 @@ def test_a_mesh_that_fails_to_build_fails_on_every_rank(shared_tmp, monkeypatch)
         raise ValueError("no mesh today")
 
     monkeypatch.setattr(geometry, "build", failing)
+    monkeypatch.setattr(geometry, "build_hex", failing)
     cfg = config("cube", {"side": 1.0}, 0.3, shared_tmp)
     with pytest.raises(RuntimeError, match="no mesh today"):
         geometry.ensure_mesh(cfg)

@@ -56,6 +56,8 @@ def test_a_direct_preset_bends_the_thin_beam_as_lu_does(preset, shared_tmp):
 
 
 @pytest.mark.mpi
+# on Q2 hexahedra both stall (1000 GMRES iterations) and fall back to LU: docs/PERFORMANCE.md
+@pytest.mark.simplex
 @pytest.mark.parametrize("preset", ["gamg", "hypre"])
 def test_a_multigrid_preset_solves_a_chunky_body_as_lu_does(preset, shared_tmp):
     """A stretched, sheared P2 cube (where algebraic multigrid with the rigid-body modes

@@ -21,7 +21,8 @@ def test_solve_reports_the_shape_error(shared_tmp):
     assert run_cli("solve", BEAM, "--out", shared_tmp, "-q") == 0
     s = read_json(shared_tmp / "summary.json")
     # the extent of the target's sample points (quadrature points, inside the cells): 0.986
-    assert s["target_size"] == pytest.approx(1.0, rel=0.02)
+    # on tetrahedra, 0.958 on hexahedra (the end cells' Gauss points 0.021 in from each end)
+    assert s["target_size"] == pytest.approx(1.0, rel=0.05)
     assert 0 < s["rho_H_initial"] == s["rho_H_final"]
     # the objective is the debiased divergence: rho_H less the mean of the self terms
     assert 0 < s["objective_final"] < s["rho_H_final"]
@@ -31,6 +32,7 @@ def test_solve_reports_the_shape_error(shared_tmp):
 
 
 @pytest.mark.mpi
+@pytest.mark.simplex  # target.mesh reads simplices (one line where it finds none)
 def test_mesh_file_target_equals_the_same_shape_given_as_a_map(shared_tmp):
     """The cube's own mesh file as target is the identity map: the same quadrature
     points with the same weights, so rho_H agrees to round-off."""

@@ -123,6 +123,7 @@ def grown_helix(h: float, growth_degree: int) -> float:
         ufl.dot(exact, exact)))
 
 
+@pytest.mark.simplex  # on hexahedra: tests/test_hex.py, its own measured rates
 @pytest.mark.parametrize("growth_degree, min_rate", [
     pytest.param(1, 1.7, marks=pytest.mark.slow), (2, 2.8)])
 def test_helix_grown_by_its_own_metric_converges_at_the_elements_rate(growth_degree, min_rate):
@@ -298,6 +299,7 @@ def PETSc_REVERSE():
     return PETSc.ScatterMode.REVERSE
 
 
+@pytest.mark.simplex  # counts measured on tetrahedra (hexahedra: 1 chord step, then 4 Newton)
 def test_warm_start_after_a_small_growth_change_is_cheap():
     """After a 1% change of every eigenvalue one load step of 6 Newton iterations brings
     the bent beam back from its last equilibrium (residual 1.2e-3 -> 2.6e-16; tolerances

@@ -22,7 +22,7 @@ from ..io.summary import RunSummary
 from ..optim.lift import Lifted, lifted_model, verification_model
 from ..optim.refined import refined_config
 from ..physics.model import ForwardModel
-from ..physics.stability import describe
+from ..physics.stability import describe, unstable_tag
 
 log = logging.getLogger(__name__)
 
@@ -77,10 +77,11 @@ def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
                else "n/a")
         reduced = (f"{100 * verified.relative:.3g} %" if verified and verified.relative
                    is not None else "not verified")
-        log.info("lifted to 3D: shape error %.3g %% (%s, %d DOFs, grown from rest, %.1f s); "
+        log.info("lifted to 3D: shape error %.3g %% (%s, %d DOFs, grown from rest, %.1f s%s); "
                  "the reduced model: verified %s, self-reported %s; the 3D body leaves the "
                  "section's shape by up to %s of the target size", 100 * lifted.relative,
-                 solid_cfg.name, lifted.dofs, lifted.wall_s, reduced, own,
+                 solid_cfg.name, lifted.dofs, lifted.wall_s, unstable_tag(lifted.stability),
+                 reduced, own,
                  "n/a" if lifted.departure is None else f"{100 * lifted.departure:.3g} %")
     log.info("the 3D body's stability: %s", describe(lifted.stability))
     log.info("wrote %s", out / "lift.json")

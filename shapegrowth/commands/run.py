@@ -45,7 +45,7 @@ from ..optim.refined import (
 )
 from ..physics import linear
 from ..physics.model import ForwardModel
-from ..physics.stability import StabilityProblem, assess_or_none
+from ..physics.stability import StabilityProblem, assess_or_none, unstable_tag
 from ..physics.state import SolveReport
 from ..status import Outcome
 from ..timing import Timer
@@ -294,9 +294,11 @@ def report_run(summary: RunSummary, settled: Settled, out: Path,
                     "growth path (hausdorff_from_rest in summary.json)", from_rest.hausdorff,
                     100 * from_rest.hausdorff / size, settled.hausdorff)
     _report_verified(summary.verified, rel)
+    verified = summary.verified
     for what, stability in (("the optimum on the run's mesh", summary.stability),
-                            ("the verified state", summary.verified.stability
-                             if summary.verified else None)):
+                            ("the verified state", verified.stability if verified else None),
+                            ("the lifted 3D state", verified.lifted.stability
+                             if verified and verified.lifted else None)):
         if stability is not None and not stability.stable:
             log.warning("%s is unstable: %d negative eigenvalue(s) of the tangent, the lowest "
                         "%.4g (summary.json stability; the mode in fields.xdmf)", what,
@@ -336,14 +338,16 @@ def _verified_text(verified: Verified | None) -> str:
     times = "once" if verified.refine == 1 else f"{verified.refine} times"
     refined = (f"verification {verified.status}" if verified.relative is None else
                f"verified shape error {100 * verified.relative:.3g} % (mesh refined {times}, "
-               "grown from rest)")
+               f"grown from rest{unstable_tag(verified.stability)})")
     lifted = verified.lifted
     if lifted is None:
         return refined
     if lifted.relative is None:
         return f"lift to 3D {lifted.status}; the reduced model's {refined}"
     return (f"lifted to 3D: shape error {100 * lifted.relative:.3g} % ({lifted.config}, "
-            f"{lifted.dofs} DOFs, grown from rest); the reduced model's {refined}")
+            f"{lifted.dofs} DOFs, grown from rest{unstable_tag(lifted.stability)}); the "
+            f"reduced model's {refined}")
+
 
 
 def _report_verified(verified: Verified | None, own_relative: float) -> None:

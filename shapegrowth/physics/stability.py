@@ -203,3 +203,15 @@ def describe(stability: Stability | None) -> str:
     if stability.switched_at is not None:
         text += f"; switched branch at {stability.switched_at:.4f}"
     return text
+
+
+def unstable_tag(stability: Stability | None) -> str:
+    """What a verified number on an unstable equilibrium says beside it: a shape a real body
+    leaves (a symmetric mesh can hold the symmetric path past its bifurcation; scene 4's disk
+    on hexahedra: 0.68 % unstable, docs/TRADEOFFS.md)."""
+    if stability is None or stability.stable:
+        return ""
+    where = ("" if stability.lost_at is None else
+             f" since {stability.lost_at:.3g} of the growth")
+    return (f"; UNSTABLE{where}: a real body leaves this shape, solver.branch: switch "
+            "follows it")
