@@ -323,8 +323,7 @@ def test_a_solve_returns_a_summary_that_round_trips_through_json(tmp_path):
 
 def test_a_run_the_budget_ended_while_improving_says_so(caplog):
     """The closing lines warn where the iteration budget, not the stopping test, ended a
-    run whose J still fell over the window (the default 100 iterations on the reachable
-    quarter arc), and stay quiet on a run that had stalled."""
+    run whose J still fell over the window (100 iterations on the reachable quarter arc), and stay quiet on a run that had stalled."""
     from shapegrowth.commands.run import report_budget
 
     falling = _history(1e-5 * 0.9 ** (np.arange(100) / 20.0))

@@ -320,7 +320,10 @@ class OptimizerConfig:
         "NLopt algorithm: mma, slsqp (dense quasi-Newton: O(n^2) memory, O(n^3) time per "
         "iteration) or lbfgs (limited-memory quasi-Newton with bounds, O(n))", "lbfgs",
         choices=("mma", "slsqp", "lbfgs"))
-    max_iterations: int = option("iteration limit", 100, ge=0)
+    max_iterations: int = option(
+        "the most iterations: a ceiling, the run's price; the window test (`ftol_rel` over "
+        "`ftol_window`) stops a run at its mesh's floor first (a reachable quarter arc: "
+        "converged at 396, docs/TRADEOFFS.md, \"Where the stopping test stops\")", 1000, ge=0)
     ftol_rel: float = option("stop when the best objective has fallen by less than this "
                              "times |J| over the last `ftol_window` iterations (0: never)",
                              1.0e-6, ge=0)
