@@ -115,6 +115,67 @@ def test_a_body_far_from_any_threshold_is_stable(shared_tmp):
         assert read is not None and read.stable and read.lowest == tuple(stability["lowest"])
 
 
+@pytest.mark.mpi
+def test_the_state_solvers_own_matrix_serves_as_the_stability_tangent(shared_tmp):
+    """A solve from rest assesses K in the state solver's matrix (no second copy of the
+    tangent): the same eigenvalues as in a matrix of its own, and the next solve, which
+    factors that matrix anew, lands where a fresh model does."""
+    import numpy as np
+
+    from shapegrowth.config import load
+    from shapegrowth.physics.model import ForwardModel
+    from shapegrowth.physics.stability import StabilityProblem
+
+    cfg = load(BEND, [f"mesh.cache_dir={shared_tmp}", "boundary.clamp=[x1_min, x1_max]",
+                      f"growth.eigenvalues.initial=[{(1 + 1.25 * EULER_STRAIN) ** 2}, 1, 1]"])
+    model = ForwardModel.build(cfg)
+    assert model.state.solve().converged
+    own = StabilityProblem(model.state).assess()
+    shared_problem = StabilityProblem(model.state, shared_tangent=True)
+    assert shared_problem.K is model.state.A
+    shared = shared_problem.assess()
+    assert shared.negative == own.negative == 1
+    assert np.allclose(shared.lowest, own.lowest, rtol=1e-8, atol=1e-12)
+    for f in model.growth.eigenvalues:
+        f.x.array[:] *= 1.001
+    assert model.state.solve().converged
+    fresh = ForwardModel.build(cfg)
+    for f, g in zip(fresh.growth.eigenvalues, model.growth.eigenvalues):
+        f.x.array[:] = g.x.array
+    assert fresh.state.solve().converged
+    scale = np.abs(fresh.state.u.x.array).max()
+    assert np.abs(model.state.u.x.array - fresh.state.u.x.array).max() < 1e-8 * scale
+
+
+@pytest.mark.mpi
+def test_the_mass_matrix_keeps_only_its_nonzeros(shared_tmp):
+    """M couples no two components: stored without its zeros it holds a third of the
+    tangent's entries in 3D and acts on a vector as the assembled one does."""
+    import numpy as np
+    from mpi4py import MPI
+
+    from shapegrowth.config import load
+    from shapegrowth.physics.model import ForwardModel
+    from shapegrowth.physics.stability import StabilityProblem, without_zeros
+
+    model = ForwardModel.build(load(BEND, [f"mesh.cache_dir={shared_tmp}"]))
+    problem = StabilityProblem(model.state)
+    full = problem.K.duplicate()  # the tangent's pattern, the mass's values
+    model.state.tangent_into(full)
+    full.zeroEntries()
+    full.axpy(1.0, problem.M, structure=1)  # SUBSET_NONZERO_PATTERN
+    assert without_zeros(full).getInfo()["nz_used"] == problem.M.getInfo()["nz_used"]
+    stored = MPI.COMM_WORLD.allreduce(problem.M.getInfo()["nz_used"], MPI.SUM)
+    tangent = MPI.COMM_WORLD.allreduce(full.getInfo()["nz_used"], MPI.SUM)
+    assert 0.3 < stored / tangent < 0.36
+    x, y, z = full.createVecRight(), full.createVecLeft(), full.createVecLeft()
+    x.setArray(np.random.default_rng(MPI.COMM_WORLD.rank).standard_normal(x.getLocalSize()))
+    full.mult(x, y)
+    problem.M.mult(x, z)
+    z.axpy(-1.0, y)
+    assert z.norm() <= 1e-14 * y.norm()
+
+
 class _Path:
     """A stand-in for StabilityProblem: the lowest eigenvalues of a path, in order."""
 

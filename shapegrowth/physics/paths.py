@@ -182,7 +182,7 @@ def solve_watched(state: StateProblem, branch: str = "follow"
     """``state.solve()`` with its path watched (and, ``branch`` "switch", left where it
     loses stability): the report, the stability where it ended (None where not assessed)
     and the problem, whose ``mode`` is that state's lowest mode (collective)."""
-    problem = StabilityProblem(state)
+    problem = StabilityProblem(state, shared_tangent=True)  # a solve from rest
     watch = PathWatch(problem, switch=branch == "switch")
     report = state.solve(watch=watch)
     return report, watch.at(report.reached, report.converged), problem
