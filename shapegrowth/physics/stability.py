@@ -52,7 +52,7 @@ WORKSPACE = (50, 200, 800)
 def without_zeros(A: PETSc.Mat) -> PETSc.Mat:
     """A copy of the assembled AIJ matrix ``A`` without its stored zeros.  The vector mass
     matrix is assembled into the tangent's pattern (3 x 3 blocks in 3D), but u . v couples no
-    two components: two thirds of the stored entries are zeros (scene 1's 149k DOFs: MEASURED).
+    two components: two thirds of the stored entries are zeros (tests/test_stability.py).
     The copy's pattern is a subset of ``A``'s (what adding it to K asks)."""
     indptr, indices, values = A.getValuesCSR()
     keep = values != 0.0
@@ -101,7 +101,8 @@ class StabilityProblem:
         its own, where no factor of that matrix is reused after an assessment (a solve from
         rest: Newton assembles and factors it anew at its next step; not an optimiser's,
         whose chord steps and adjoint reuse the state's factors of it).  Saves a matrix the
-        size of the tangent (scene 1's 149k DOFs: MEASURED)."""
+        size of the tangent (with the mass matrix without its zeros, scene 1's 149k DOFs grown
+        from rest out of core: peak 1 444-1 552 MB against 1 667-1 784: docs/PERFORMANCE.md)."""
         from slepc4py import SLEPc
 
         self.state, self.count = state, count
