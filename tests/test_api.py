@@ -6,6 +6,7 @@ the typed run summary.  Tests marked ``mpi`` also run under ``mpirun -n 2``."""
 from __future__ import annotations
 
 import dataclasses
+import logging
 
 import numpy as np
 import pytest
@@ -321,11 +322,15 @@ def test_a_solve_returns_a_summary_that_round_trips_through_json(tmp_path):
     assert again.to_json() == data
 
 
-def test_a_run_the_budget_ended_while_improving_says_so(caplog):
+def test_a_run_the_budget_ended_while_improving_says_so(caplog, request):
     """The closing lines warn where the iteration budget, not the stopping test, ended a
-    run whose J still fell over the window (100 iterations on the reachable quarter arc), and stay quiet on a run that had stalled."""
+    run whose J still fell over the window (100 iterations on the reachable quarter arc),
+    and stay quiet on a run that had stalled."""
     from shapegrowth.commands.run import report_budget
 
+    logger = logging.getLogger("shapegrowth")  # it may not propagate (logs.configure)
+    logger.addHandler(caplog.handler)
+    request.addfinalizer(lambda: logger.removeHandler(caplog.handler))
     falling = _history(1e-5 * 0.9 ** (np.arange(100) / 20.0))
     with caplog.at_level("WARNING", logger="shapegrowth"):
         report_budget(falling, 20)
