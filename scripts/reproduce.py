@@ -38,6 +38,7 @@ from pathlib import Path
 
 from shapegrowth.commands import launch
 from shapegrowth.io.summary import RunSummary
+from shapegrowth.physics.stability import unstable_since
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -230,10 +231,8 @@ def _how(s: RunSummary) -> str:
 
 def _unstable(stability) -> str:
     """An unstable verified state is no shape a real body keeps: said beside its number."""
-    if stability is None or stability.stable:
-        return ""
-    where = "" if stability.lost_at is None else f" since {stability.lost_at:.3g} of the growth"
-    return f", **unstable**{where}"
+    where = unstable_since(stability)
+    return "" if where is None else f", **unstable**{where}"
 
 
 def _seconds(s: RunSummary) -> str:

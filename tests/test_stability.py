@@ -153,6 +153,7 @@ def test_the_mass_matrix_keeps_only_its_nonzeros(shared_tmp):
     tangent's entries in 3D and acts on a vector as the assembled one does."""
     import numpy as np
     from mpi4py import MPI
+    from petsc4py import PETSc
 
     from shapegrowth.config import load
     from shapegrowth.physics.model import ForwardModel
@@ -163,7 +164,7 @@ def test_the_mass_matrix_keeps_only_its_nonzeros(shared_tmp):
     full = problem.K.duplicate()  # the tangent's pattern, the mass's values
     model.state.tangent_into(full)
     full.zeroEntries()
-    full.axpy(1.0, problem.M, structure=1)  # SUBSET_NONZERO_PATTERN
+    full.axpy(1.0, problem.M, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
     assert without_zeros(full).getInfo()["nz_used"] == problem.M.getInfo()["nz_used"]
     stored = MPI.COMM_WORLD.allreduce(problem.M.getInfo()["nz_used"], MPI.SUM)
     tangent = MPI.COMM_WORLD.allreduce(full.getInfo()["nz_used"], MPI.SUM)

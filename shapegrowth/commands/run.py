@@ -349,7 +349,6 @@ def _verified_text(verified: Verified | None) -> str:
             f"reduced model's {refined}")
 
 
-
 def _report_verified(verified: Verified | None, own_relative: float) -> None:
     """The warning of a run whose verified error exceeds its own by more than a factor 2."""
     if verified is None:

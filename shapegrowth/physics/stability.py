@@ -230,13 +230,20 @@ def describe(stability: Stability | None) -> str:
     return text
 
 
+def unstable_since(stability: Stability | None) -> str | None:
+    """None for a stable (or unassessed) state; for an unstable one, where its path lost
+    stability (" since t of the growth", "" where that is not known)."""
+    if stability is None or stability.stable:
+        return None
+    return "" if stability.lost_at is None else f" since {stability.lost_at:.3g} of the growth"
+
+
 def unstable_tag(stability: Stability | None) -> str:
     """What a verified number on an unstable equilibrium says beside it: a shape a real body
     leaves (a symmetric mesh can hold the symmetric path past its bifurcation; scene 4's disk
     on hexahedra: 0.68 % unstable, docs/TRADEOFFS.md)."""
-    if stability is None or stability.stable:
+    where = unstable_since(stability)
+    if where is None:
         return ""
-    where = ("" if stability.lost_at is None else
-             f" since {stability.lost_at:.3g} of the growth")
     return (f"; UNSTABLE{where}: a real body leaves this shape, solver.branch: switch "
             "follows it")
