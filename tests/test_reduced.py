@@ -262,6 +262,14 @@ def test_a_section_run_writes_its_growth_and_the_lifted_number_a_3d_run_starts_f
     # equilibrium: one equilibrium here, so the same number
     assert 1e-7 < lifted["departure"] < 1  # the compatible growth: < 1e-8 (above)
     assert again["lifted"]["departure"] == pytest.approx(lifted["departure"], rel=1e-5)
+    # `verify --refine 1`: the run's verification again, the section and its lift (onto the
+    # run's verify.lift at the refinement the run's lift used)
+    assert run_cli("verify", str(out), "--refine", "1", "-q") == 0
+    check = read_json(out / "verify-r1" / "verify.json")
+    assert check["verified"]["relative"] == pytest.approx(verified["relative"], rel=1e-9)
+    assert check["verified"]["lifted"]["dofs"] == lifted["dofs"]
+    assert check["check"]["second"] == pytest.approx(lifted["relative"], rel=1e-8)
+    assert check["check"]["first"] == lifted["relative"] and check["check"]["settled"]
     # growth.start: lifted: a 3D run starts from it, on the body the run lifted onto
     start = shared_tmp / "start"
     assert run_cli("run", str(solid), "--out", str(start), "-q", "--set", "mesh.refine=1",

@@ -204,3 +204,60 @@ def test_the_verification_measures_with_clouds_of_degree_two_at_least(degree, me
     fine = refined_config(cfg, 1)
     assert fine.objective.hausdorff.quadrature_degree == measured
     assert fine.mesh.refine == cfg.mesh.refine + 1
+
+
+def test_the_check_of_a_verification_is_a_third_of_the_way_to_one_percent():
+    """Reverified: the finer mesh may move the number by less than a third of its distance
+    to 1 % (from above or from below), and says nothing where a solve failed."""
+    from shapegrowth.optim.refined import Reverified
+
+    def second(relative):
+        return Verified(None if relative is None else relative * 2.0, relative, 2, 100, 1.0,
+                        False, "solved" if relative is not None else "failed: x")
+
+    near = Reverified(0.03, 1, second(0.025))  # 0.5 points of the allowed 0.667
+    assert near.moved == pytest.approx(0.005) and near.allowed == pytest.approx(0.02 / 3)
+    assert near.settled is True
+    assert Reverified(0.03, 1, second(0.0231)).settled is False  # 0.69 points
+    below = Reverified(0.009, 1, second(0.0093))  # 0.03 of the allowed 0.033
+    assert below.settled is True and Reverified(0.009, 1, second(0.0094)).settled is False
+    failed = Reverified(0.03, 1, second(None))
+    assert failed.moved is None and failed.settled is None
+    assert failed.to_json()["second"] is None and near.to_json()["second_refine"] == 2
+
+
+@pytest.mark.mpi
+def test_verify_checks_a_run_on_its_mesh_refined_once_more(shared_tmp):
+    """``shapegrowth verify RUN``: --refine 1 is the run's own verification again (the same
+    number to round-off); by default the mesh refined once more, with more DOFs, the check
+    computed from both numbers and written to RUN/verify-r2/verify.json."""
+    run = shared_tmp / "run"
+    assert run_cli("run", SQUARE, "--out", run, "-q", "--set",
+                   "optimizer.max_iterations=4") == 0
+    own = read_json(run / "summary.json")["verified"]
+    assert run_cli("verify", run, "--refine", "1", "--out", shared_tmp / "again", "-q") == 0
+    again = read_json(shared_tmp / "again" / "verify.json")
+    assert again["verified"]["relative"] == pytest.approx(own["relative"], rel=1e-9)
+    assert again["verified"]["dofs"] == own["dofs"]
+    assert again["check"]["moved"] < 1e-9 * own["relative"] and again["check"]["settled"]
+    assert run_cli("verify", run, "-q") == 0
+    twice = read_json(run / "verify-r2" / "verify.json")
+    v, check = twice["verified"], twice["check"]
+    assert v["refine"] == 2 and v["status"] == "solved" and v["dofs"] > 3 * own["dofs"]
+    assert (check["first"], check["second"]) == (own["relative"], v["relative"])
+    assert check["moved"] == pytest.approx(abs(v["relative"] - own["relative"]), rel=1e-12)
+    assert check["allowed"] == pytest.approx(abs(own["relative"] - 0.01) / 3, rel=1e-12)
+    assert check["settled"] == (check["moved"] < check["allowed"])
+    from shapegrowth.io.summary import verified_from_json
+
+    assert verified_from_json(v).to_json() == v  # read back whole
+
+
+def test_verify_refuses_a_folder_without_a_run_or_without_a_verification(tmp_path, capsys):
+    assert run_cli("verify", tmp_path / "none") == 2
+    assert "error: verify: " in capsys.readouterr().err
+    assert run_cli("run", ARC, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=1",
+                   "--set", "verify.enabled=false") == 0
+    assert run_cli("verify", tmp_path) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "verify.enabled false" in err

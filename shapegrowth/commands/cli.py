@@ -70,6 +70,16 @@ def build_parser() -> argparse.ArgumentParser:
     lift.add_argument("run_dir", type=Path, help="folder of a finished run of a 2D model")
     lift.add_argument("--config", required=True,
                       help="YAML config of the 3D body (--set applies to it)")
+    check = sub.add_parser("verify", parents=[options],
+                           help="a finished run's best growth verified on a finer mesh, "
+                                "against the run's own verified number (verify.json)")
+    check.add_argument("run_dir", type=Path, help="folder of a finished run")
+    check.add_argument("--refine", type=_refinements, default=None, metavar="N",
+                       help="refinements of the run's last mesh (default: one more than the "
+                            "run's verify.refine)")
+    check.add_argument("--lift", default=None, metavar="CONFIG_3D",
+                       help="a section run: the 3D config to lift onto (default: the run's "
+                            "verify.lift; none: the section alone)")
     fig = sub.add_parser("figure", parents=[options],
                          help="a finished run's deformed body over its target, in 3D "
                               "(shape3d.png)")
@@ -122,6 +132,13 @@ def _numbers(kind: type, what: str, valid):
 
 
 _sizes = _numbers(float, "positive mesh sizes", lambda v: v > 0)
+
+
+def _refinements(text: str) -> int:
+    """--refine N: 1 to 4 uniform refinements."""
+    if not text.isdigit() or not 1 <= int(text) <= 4:
+        raise argparse.ArgumentTypeError(f"a number of refinements from 1 to 4, got {text!r}")
+    return int(text)
 _ranks = _numbers(int, "rank counts >= 1", lambda v: v >= 1)
 
 
@@ -182,6 +199,13 @@ def _lift(cfg, args) -> int:
 
     lifted = lift_run(args.run_dir, cfg, args.out or args.run_dir / "lift")
     return EXIT_OK if lifted.relative is not None else EXIT_FAILED
+
+
+def _verify(args) -> int:
+    from .verify import reverify
+
+    check = reverify(args.run_dir, args.refine, args.out, args.overrides, args.lift)
+    return EXIT_OK if check.second_headline is not None else EXIT_FAILED
 
 
 def _figure(args) -> int:
@@ -309,6 +333,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "figure":  # the run's own config
             return _figure(args)
+        if args.command == "verify":
+            return _verify(args)
         cfg = load(args.config, args.overrides)
         return COMMANDS[args.command](cfg, args)
     except (ConfigError, InputError) as err:

@@ -27,11 +27,12 @@ from ..physics.stability import describe, unstable_tag
 log = logging.getLogger(__name__)
 
 
-def reduced_run(run_dir: Path, solve: bool = True, command: str = "lift"
+def reduced_run(run_dir: Path, solve: bool = True, command: str = "lift",
+                overrides: list[str] | tuple[str, ...] = ()
                 ) -> tuple[Config, RunSummary, ForwardModel]:
-    """The run's config, summary and model (a 2D one for the lift) at its best growth, in
-    equilibrium from rest where that solve converges (``solve``; else at rest)
-    (collective); ``command`` names the caller in errors."""
+    """The run's config (``overrides`` applied), summary and model (a 2D one for the lift)
+    at its best growth, in equilibrium from rest where that solve converges (``solve``;
+    else at rest) (collective); ``command`` names the caller in errors."""
     for name in ("summary.json", "growth.npz"):
         if not (run_dir / name).is_file():
             kind = " of a 2D section model" if command == "lift" else ""
@@ -39,7 +40,7 @@ def reduced_run(run_dir: Path, solve: bool = True, command: str = "lift"
                              f"a finished `shapegrowth run`{kind})")
     summary = RunSummary.from_json(io.read_json(run_dir / "summary.json"))
     # the mesh of the run's last level
-    base = from_dict(summary.config)
+    base = from_dict(summary.config, overrides)
     cfg = refined_config(base, io.growth_refinements(run_dir / "growth.npz") - base.mesh.refine)
     model = ForwardModel.build(cfg)
     try:

@@ -112,13 +112,7 @@ class RunSummary:
                     out.update(_plain(value))
             elif f.name == "verified":
                 if value is not None:
-                    out["verified"] = _plain(value)
-                    if value.lifted is None:  # only a lifted reduced model has one
-                        del out["verified"]["lifted"]
-                    else:
-                        out["verified"]["lifted"] = value.lifted.to_json()
-                    out["verified"]["stability"] = (value.stability.to_json()
-                                                    if value.stability else None)
+                    out["verified"] = value.to_json()
             elif f.name == "status":
                 out["status"] = str(value)
             elif f.name == "stability":
@@ -152,17 +146,19 @@ class RunSummary:
             keys = [f.name for f in dataclasses.fields(OptimizationMeasures)]
             measured: dict[str, Any] = {k: data.get(k) for k in keys}
             optimization = OptimizationMeasures(**measured)
-        verified = None
-        if data.get("verified"):
-            fields = dict(data["verified"])
-            lifted = fields.pop("lifted", None)
-            stability = _stability(fields.pop("stability", None))
-            if lifted:
-                lifted = dict(lifted)
-                lifted["stability"] = _stability(lifted.get("stability"))
-            verified = Verified(**fields, lifted=Lifted(**lifted) if lifted else None,
-                                stability=stability)
+        verified = verified_from_json(data["verified"]) if data.get("verified") else None
         return cls(**common, solve=solve, optimization=optimization, verified=verified)
+
+
+def verified_from_json(data: dict[str, Any]) -> Verified:
+    """summary.json's (and verify.json's) ``verified`` read back."""
+    fields = dict(data)
+    lifted = fields.pop("lifted", None)
+    stability = _stability(fields.pop("stability", None))
+    if lifted:
+        lifted = dict(lifted)
+        lifted["stability"] = _stability(lifted.get("stability"))
+    return Verified(**fields, lifted=Lifted(**lifted) if lifted else None, stability=stability)
 
 
 def _stability(data: dict[str, Any] | None) -> Stability | None:

@@ -59,6 +59,64 @@ class Verified:
         lifted, else the refined model's."""
         return self.lifted.relative if self.lifted is not None else self.relative
 
+    def to_json(self) -> dict[str, object]:
+        """summary.json's ``verified`` (``lifted`` only where a reduced model was lifted)."""
+        out: dict[str, object] = dataclasses.asdict(self)
+        if self.lifted is None:
+            del out["lifted"]
+        else:
+            out["lifted"] = self.lifted.to_json()
+        out["stability"] = self.stability.to_json() if self.stability else None
+        return out
+
+
+# A verified number holds when the mesh refined once more moves it by less than this share
+# of its distance to the scenes' 1 % (docs/TRADEOFFS.md, 'The verification, verified'): a
+# number the next refinement could carry across 1 % does not decide a scene.
+SETTLED_SHARE = 1.0 / 3.0
+ONE_PERCENT = 0.01
+
+
+@dataclass(frozen=True)
+class Reverified:
+    """A finished run's verified number against the same growth verified on a finer mesh
+    (``shapegrowth verify``): ``first`` is the run's headline (refined ``first_refine``
+    times; lifted for a lifted section), ``second`` the new verification."""
+
+    first: float | None
+    first_refine: int
+    second: Verified
+
+    @property
+    def second_headline(self) -> float | None:
+        return self.second.headline
+
+    @property
+    def moved(self) -> float | None:
+        """How far the finer mesh moved the number (a fraction of the target size)."""
+        if self.first is None or self.second_headline is None:
+            return None
+        return abs(self.second_headline - self.first)
+
+    @property
+    def allowed(self) -> float | None:
+        """A third of the way from the first number to 1 %."""
+        return None if self.first is None else SETTLED_SHARE * abs(self.first - ONE_PERCENT)
+
+    @property
+    def settled(self) -> bool | None:
+        """Whether the finer mesh moved the number by less than :attr:`allowed` (None where
+        either verification failed)."""
+        if self.moved is None or self.allowed is None:
+            return None
+        return self.moved < self.allowed
+
+    def to_json(self) -> dict[str, object]:
+        """verify.json's ``check``."""
+        return {"first": self.first, "first_refine": self.first_refine,
+                "second": self.second_headline, "second_refine": self.second.refine,
+                "moved": self.moved, "allowed": self.allowed, "settled": self.settled}
+
 
 # The verification measures with clouds of at least this quadrature degree, whatever the
 # run optimised with (objective.hausdorff.quadrature_degree 1 is cheaper to optimise with:

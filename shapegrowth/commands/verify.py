@@ -1,0 +1,113 @@
+"""``shapegrowth verify RUN_DIR [--refine N]``: a finished run's verification, verified.
+
+A run leads with its best growth grown from rest on its mesh refined ``verify.refine``
+times (and, for a section, lifted onto its 3D body there).  Whether that number is itself
+converged is a question for the next mesh: this command grows the same growth (growth.npz)
+from rest on the run's last mesh refined N times (default: once more than the run did;
+nested for simplices, regenerated with every count doubled for hexahedra) and measures it
+there, as the run's own verification does.  A section run with ``verify.lift`` (or
+``--lift CONFIG_3D``) is lifted as well, onto its 3D body refined N - ``verify.refine``
+times more than the run's lift was.
+
+The check (:class:`~shapegrowth.optim.refined.Reverified`): the finer number must move by
+less than a third of the way from the run's number to 1 %, so that no further refinement
+is likely to carry it across the scenes' 1 %.  Writes verify.json (the new verification,
+the run's number and the check) to ``--out`` (default RUN_DIR/verify-rN).  ``--set``
+applies to the run's config (and to the 3D config of a lift), e.g.
+``solver.linear=mumps_ooc`` for a mesh whose factor does not fit in memory.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from pathlib import Path
+
+from ..config import Config, load
+from ..errors import InputError
+from ..io import files as io
+from ..optim.lift import lifted_model, verification_model
+from ..optim.refined import Reverified, verify
+from ..physics.stability import describe, unstable_tag
+from .lift import reduced_run
+
+log = logging.getLogger(__name__)
+
+
+def lift_config(cfg: Config, lift_path: str | None, overrides: list[str] | tuple[str, ...],
+                refine: int) -> Config | None:
+    """The 3D config a section run is lifted onto at ``refine`` (the run's refinement of the
+    check), refined as much more than the run's own lift; None for no lift."""
+    path = lift_path if lift_path is not None else cfg.verify.lift
+    if path is None or path == "none":
+        return None
+    if not Path(path).is_file():
+        raise InputError(f"verify: the 3D config to lift onto, {path}, not found (run from the "
+                         "folder the run was made in, or give --lift CONFIG_3D; --lift none "
+                         "verifies the section alone)")
+    solid = load(path, overrides)
+    base = cfg.verify.lift_refine if cfg.verify.lift_refine is not None \
+        else solid.verify.refine
+    return verification_model(solid, base + refine - cfg.verify.refine)
+
+
+def reverify(run_dir: Path, refine: int | None = None, out: Path | None = None,
+             overrides: list[str] | tuple[str, ...] = (), lift_path: str | None = None
+             ) -> Reverified:
+    """The run's best growth verified on its last mesh refined ``refine`` times (default:
+    once more than the run), beside the run's own verified number, written to ``out``
+    (default RUN_DIR/verify-rN) (collective)."""
+    cfg, summary, model = reduced_run(run_dir, solve=False, command="verify",
+                                      overrides=overrides)
+    if summary.verified is None:
+        raise InputError(f"verify: {run_dir} was run with verify.enabled false: it has no "
+                         "verified number to check")
+    first = summary.verified
+    refine = first.refine + 1 if refine is None else refine
+    out = run_dir / f"verify-r{refine}" if out is None else out
+    solid = lift_config(cfg, lift_path, overrides, refine) if cfg.section.reduced else None
+    log.info("verify: %s's best growth on its mesh refined %d time(s), grown from rest%s",
+             cfg.name, refine, "" if solid is None else
+             f"; lifted onto {solid.name} (its mesh refined {solid.mesh.refine} time(s))")
+    verified = verify(model, refine)
+    if solid is not None:  # the departure compares the section's own equilibrium (seconds)
+        solved = model.state.solve().converged
+        if not solved:
+            model.state.reset()
+            io.read_growth(run_dir / "growth.npz", model.state.applied)
+        verified = dataclasses.replace(verified,
+                                       lifted=lifted_model(model, solid, compare=solved)[0])
+    check = Reverified(first.headline, first.refine, verified)
+    io.write_json(out / "verify.json", {"run": str(run_dir), "verified": verified.to_json(),
+                                        "check": check.to_json()})
+    _report(check)
+    log.info("wrote %s", out / "verify.json")
+    return check
+
+
+def _pc(value: float | None) -> str:
+    return "n/a" if value is None else f"{100 * value:.3g} %"
+
+
+def _report(check: Reverified) -> None:
+    v = check.second
+    where = (f"lifted to 3D ({v.lifted.config}, {v.lifted.dofs} DOFs)" if v.lifted else
+             f"{v.dofs} DOFs")
+    if check.second_headline is None:
+        log.warning("verify: no equilibrium from rest on the mesh refined %d time(s): %s",
+                    v.refine, v.lifted.status if v.lifted else v.status)
+        return
+    tag = unstable_tag(v.lifted.stability if v.lifted else v.stability)
+    log.info("verified on the mesh refined %d time(s): shape error %s (%s, grown from rest, "
+             "%.1f s%s); the run's own, refined %d time(s): %s", v.refine,
+             _pc(check.second_headline), where, v.wall_s + (v.lifted.wall_s if v.lifted else 0),
+             tag, check.first_refine, _pc(check.first))
+    if v.lifted is not None:
+        log.info("the section itself on the mesh refined %d time(s): %s", v.refine,
+                 _pc(v.relative))
+    if check.settled is not None:
+        verdict = "settled" if check.settled else "NOT settled"
+        log.info("the finer mesh moved it by %s, a third of the way to 1 %% is %s: %s",
+                 _pc(check.moved), _pc(check.allowed), verdict)
+    log.info("the finer state's stability: %s",
+             describe(v.lifted.stability if v.lifted else v.stability))
