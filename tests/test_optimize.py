@@ -339,11 +339,12 @@ def test_a_failed_run_solves_its_best_design_again_from_rest(tmp_path, monkeypat
 @pytest.mark.slow
 def test_reproduce_writes_results_from_the_run_folders(tmp_path):
     """scripts/reproduce.py: the two square runs, the table with the fixed/free ratio, the
-    figures; a second call reads the finished runs back instead of running them."""
+    figures, the refined-twice check (--twice); a second call reads the finished runs and
+    checks back instead of running them."""
     import json
     import sys
 
-    cmd = [sys.executable, str(ROOT / "scripts" / "reproduce.py"), "--ranks", "1",
+    cmd = [sys.executable, str(ROOT / "scripts" / "reproduce.py"), "--ranks", "1", "--twice",
            "--only", "square_circle_fixed,square_circle_free", "--out", str(tmp_path / "runs"),
            "--results", str(tmp_path / "RESULTS.md"), "--set", "optimizer.max_iterations=2",
            "--set", "mesh.size=1.0"]
@@ -355,11 +356,18 @@ def test_reproduce_writes_results_from_the_run_folders(tmp_path):
 
     row = re.search(r"\| 6 \| square_circle_free \| 2D plane strain, free frame \| "
                     r"\*\*(\d+\.\d\d) %\*\* \| refined x1, from rest, (\d+) DOFs \| "
-                    r"(\d+\.\d\d) % \|", text)
+                    r"(\d+\.\d\d) % \(x2, (\d+) DOFs\): moved (\d+\.\d\d) of (\d+\.\d\d) "
+                    r"points, (settled|\*\*not settled\*\*) \| (\d+\.\d\d) % \|", text)
     assert row, text
     free = json.loads((tmp_path / "runs" / "square_circle_free" / "summary.json").read_text())
     assert float(row[1]) == pytest.approx(100 * free["verified"]["relative"], abs=0.006)
     assert int(row[2]) == free["verified"]["dofs"] > free["dofs"]["state"]
+    twice = json.loads((tmp_path / "runs" / "square_circle_free" / "verify-r2" /
+                        "verify.json").read_text())
+    assert float(row[3]) == pytest.approx(100 * twice["verified"]["relative"], abs=0.006)
+    assert int(row[4]) == twice["verified"]["dofs"] > 3 * int(row[2])
+    assert float(row[5]) == pytest.approx(100 * twice["check"]["moved"], abs=0.006)
+    assert (row[7] == "settled") == twice["check"]["settled"]
     assert "not run" in text  # the others
     # the extra measurements not made are named, not tabled
     assert "Not in this reproduction: beam_wave_from_2d" in text
@@ -367,6 +375,7 @@ def test_reproduce_writes_results_from_the_run_folders(tmp_path):
     took = re.search(r"The 2 runs of this reproduction took \*\*(\d+) min\*\*", text)
     fixed = json.loads((tmp_path / "runs" / "square_circle_fixed" / "summary.json").read_text())
     assert took and int(took[1]) == round((free["wall_time_s"] + fixed["wall_time_s"]) / 60)
+    assert "The 2 refined-twice checks (`--twice`) took " in text
     assert "rho_H(square_circle_fixed) / rho_H(square_circle_free) = **" in text
     assert "Above the floor rho_H(T, T) = " in text  # two iterations: far above it
     assert (tmp_path / "img" / "results" / "square_circle_free_shape.png").is_file()
