@@ -95,3 +95,32 @@ def test_the_twist_metric_is_isochoric(tau):
     x = _grid(np.linspace(-0.05, 0.05, 5), np.linspace(-0.01, 0.01, 3))
     lams, _ = aligned_eigenframes(_twist_metric(x, tau, 0.1), x)
     assert np.allclose(lams.prod(axis=1), 1.0)
+
+
+def test_one_hemisphere_keeps_each_rotation_and_the_turn_about_one_axis_continuous():
+    """The rotation by t3 about k is the rotation by -t3 about -k: every rotation is kept;
+    a frame field turning both ways about X3 (the disk's in-plane directions) keeps its axis
+    at +X3 with t3 signed, so that the angles halfway between +a and -a are the identity
+    (unsigned, the axis jumps to -X3 and halfway is a turn about a horizontal axis)."""
+    from shapegrowth.physics.eigenframes import one_hemisphere
+
+    V = _rotations(400, seed=3)
+    t = one_hemisphere(*rodrigues_angles(V))
+    assert np.abs(rodrigues_matrix(*t) - V).max() < 1e-10
+    k = np.stack([np.sin(t[1]) * np.cos(t[0]), np.sin(t[1]) * np.sin(t[0]), np.cos(t[1])], 1)
+    weight = np.sin(t[2] / 2) ** 2
+    leading = np.linalg.eigh(np.einsum("n,ni,nj->ij", weight, k, k))[1][:, -1]
+    assert (k @ leading * np.sign(leading[np.argmax(np.abs(leading))]) >= 0).all()
+    turns = np.linspace(-1.2, 1.2, 9)  # about X3, both ways
+    c, s = np.cos(turns), np.sin(turns)
+    Z = np.zeros((len(turns), 3, 3))
+    Z[:, 0, 0], Z[:, 0, 1], Z[:, 1, 0], Z[:, 1, 1], Z[:, 2, 2] = c, -s, s, c, 1.0
+    unsigned = rodrigues_angles(Z)
+    assert np.ptp(np.cos(unsigned[1])) == pytest.approx(2.0)  # the axis jumps, +X3 to -X3
+    t1, t2, t3 = one_hemisphere(*unsigned)
+    assert np.abs(rodrigues_matrix(t1, t2, t3) - Z).max() < 1e-12
+    assert np.abs(t2).max() < 1e-12 and t3 == pytest.approx(turns, abs=1e-12)
+    half = [(a[0] + a[-1]) / 2 for a in (t1, t2, t3)]  # between the turns by -1.2 and +1.2
+    assert np.abs(rodrigues_matrix(*[np.array([h]) for h in half])[0] - np.eye(3)).max() < 1e-12
+    wrong = [(a[0] + a[-1]) / 2 for a in unsigned]
+    assert np.abs(rodrigues_matrix(*[np.array([h]) for h in wrong])[0] - np.eye(3)).max() > 0.5

@@ -68,6 +68,30 @@ def rodrigues_angles(V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     return t1, t2, t3
 
 
+def one_hemisphere(t1: np.ndarray, t2: np.ndarray, t3: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The same rotations with their axes k in one hemisphere and t3 signed: the rotation by
+    t3 about k is the rotation by -t3 about -k, i.e. (t1 + pi, pi - t2, -t3).  With t3 in
+    [0, pi], a frame field turning one way and then the other about one axis (the in-plane
+    directions of a body grown into a disk, about X3) has its axis jump from k to -k where
+    the turn changes sign; the interpolated angles between two such nodes are a rotation
+    about an axis in between, which no node asked for (the cube of scene 6 started from its
+    target's metric: 13.3 % against 6.6 % with the axes kept on one side, h 1).  The
+    hemisphere is that of the axis most of the turning is about (the leading eigenvector of
+    sum sin^2(t3 / 2) k k^T, its largest component made positive); t3 then lies in [-pi, pi]."""
+    k = np.stack([np.sin(t2) * np.cos(t1), np.sin(t2) * np.sin(t1), np.cos(t2)], axis=1)
+    weight = np.sin(t3 / 2) ** 2
+    _, vecs = np.linalg.eigh(np.einsum("n,ni,nj->ij", weight, k, k))
+    reference = vecs[:, -1]
+    reference = reference * np.sign(reference[np.argmax(np.abs(reference))])
+    flip = k @ reference < 0
+    t1, t2, t3 = t1.copy(), t2.copy(), t3.copy()
+    t1[flip] = np.mod(t1[flip] + np.pi, 2 * np.pi)
+    t2[flip] = np.pi - t2[flip]
+    t3[flip] = -t3[flip]
+    return t1, t2, t3
+
+
 def _spanning_order(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Breadth-first order of the nodes x (n, 3) along the minimum spanning tree of their
     nearest-neighbour graph, and each node's parent (-1 for roots), from node 0 of the
@@ -77,14 +101,26 @@ def _spanning_order(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     from scipy.spatial import cKDTree
 
     n = len(x)
-    order = np.lexsort(x.T[::-1])  # numbering-free: by coordinates
+    # Numbering-free, and partition-free: node coordinates computed cell by cell differ in
+    # their last bits between 1 and N ranks (0 against 6e-17), which reorders tied nodes and
+    # ties between edges, and the tree with them (the cube of scene 6 took other frames on 2
+    # ranks); so coordinates and distances are compared rounded to 1e-9 of the body's size,
+    # and edges of equal rounded length are ranked by their end nodes' sorted positions.
+    scale = float(np.ptp(x, axis=0).max()) or 1.0
+    order = np.lexsort(np.round(x / scale, 9).T[::-1])
     xs = x[order]
     k = min(NEIGHBOURS + 1, n)
-    dist, nbr = cKDTree(xs).query(xs, k=k)
-    rows = np.repeat(np.arange(n), k - 1)
-    # distinct positive weights (ties broken by the sorted position, not by the numbering)
-    weights = dist[:, 1:].ravel() * (1 + 1e-9 * rows / max(n, 1)) + 1e-300
-    graph = coo_matrix((weights, (rows, nbr[:, 1:].ravel())), shape=(n, n)).tocsr()
+    extra = min(k + 6, n)  # neighbours tied with the k-th are kept
+    dist, nbr = cKDTree(xs).query(xs, k=extra)
+    rounded = np.round(dist / scale, 9)
+    keep = rounded[:, 1:] <= rounded[:, k - 1:k]
+    rows = np.repeat(np.arange(n), extra - 1).reshape(n, extra - 1)[keep]
+    cols = nbr[:, 1:][keep]
+    lengths = rounded[:, 1:][keep]
+    ranked = np.lexsort((np.maximum(rows, cols), np.minimum(rows, cols), lengths))
+    weights = np.empty(len(ranked))
+    weights[ranked] = np.arange(1, len(ranked) + 1)  # the MST depends on their order alone
+    graph = coo_matrix((weights, (rows, cols)), shape=(n, n)).tocsr()
     tree = minimum_spanning_tree(graph)
     tree = tree + tree.T
     parent = np.full(n, -1)
@@ -100,6 +136,20 @@ def _spanning_order(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     seq = np.concatenate(sequence)
     # back to the caller's numbering
     return order[seq], np.where(parent[seq] >= 0, order[np.maximum(parent[seq], 0)], -1)
+
+
+def _nearest(scores: np.ndarray, candidates: np.ndarray, tied: float = 1e-8) -> int:
+    """The candidate frame of the highest score (nearest the reference); a tie within
+    ``tied`` (a node of a symmetric body, its parent's frame halfway between two of its own)
+    goes to the candidate nearest the identity, then to the largest entries in order, so
+    that round-off (the last bits of a node's metric on 1 or N ranks) does not decide it."""
+    near = np.flatnonzero(scores >= scores.max() - tied)
+    if len(near) == 1:
+        return int(near[0])
+    trace = np.einsum("pii->p", candidates[near])
+    near = near[trace >= trace.max() - tied]
+    keys = np.round(candidates[near].reshape(len(near), 9), 6)
+    return int(near[np.lexsort(keys.T[::-1])[-1]])
 
 
 def aligned_eigenframes(C: np.ndarray, x: np.ndarray,
@@ -124,7 +174,7 @@ def aligned_eigenframes(C: np.ndarray, x: np.ndarray,
             if np.abs(off).max() <= degenerate * scale[node]:
                 frames[node], lams[node] = reference, np.diag(inherited)
                 continue
-        best = int(np.argmax(np.einsum("ij,pij->p", reference, candidates)))
+        best = _nearest(np.einsum("ij,pij->p", reference, candidates), candidates)
         frames[node] = candidates[best]
         lams[node] = w[node] @ np.abs(_SIGNED_PERMUTATIONS[best])
     return lams, frames

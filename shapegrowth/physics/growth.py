@@ -30,7 +30,7 @@ from ..config import Config, ConfigError, resolved
 from ..config.expressions import evaluate
 from ..config.maps import target_metric
 from ..config.reduction import Section
-from .eigenframes import aligned_eigenframes, rodrigues_angles
+from .eigenframes import aligned_eigenframes, one_hemisphere, rodrigues_angles
 
 log = logging.getLogger(__name__)
 
@@ -172,7 +172,16 @@ class Growth:
             xs = np.concatenate([p[0] for p in pieces])
             Cs = np.concatenate([p[1] for p in pieces])
             lams, frames = aligned_eigenframes(Cs, xs)
-            angles = np.stack(rodrigues_angles(frames), axis=1)
+            t = rodrigues_angles(frames)
+            signed = one_hemisphere(*t)
+            if resolved(cfg.growth.angles.bounds)[2][0] < 0:  # t3 may be signed
+                t = signed
+            elif np.any(signed[2] < -1e-8):
+                log.info("growth.start: target: the frames turn both ways about one axis, "
+                         "and their angles jump where the turn changes sign; with "
+                         "growth.angles.bounds' third pair from -pi (e.g. [-3.1416, 3.1416]) "
+                         "they stay continuous (eigenframes.py, one_hemisphere)")
+            angles = np.stack(t, axis=1)
             counts = np.cumsum([0] + [len(p[0]) for p in pieces])
             parts = [(lams[a:b], angles[a:b]) for a, b in zip(counts[:-1], counts[1:])]
         else:
