@@ -149,7 +149,10 @@ class AnglesConfig:
     initial: tuple[Scalar, ...] | None = option(
         "initial Rodrigues angles theta_i (frame: free), numbers or expressions (default 0)", None)
     bounds: tuple[tuple[float, float], ...] | None = option(
-        "bounds per angle (default [0, 2pi], [0, pi], [0, 2pi]; 2D: [0, 2pi])", None)
+        "bounds per angle (default [0, 2pi], [0, pi], [0, 2pi]; 2D: [0, 2pi]); in 3D a third "
+        "pair from -pi ([-pi, pi]) lets a frame turn both ways about one axis with its "
+        "angles continuous (growth.start: target keeps the axes in one hemisphere then; "
+        "docs/TRADEOFFS.md, scene 6 in 3D)", None)
 
 
 @dataclass(frozen=True)
