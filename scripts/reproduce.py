@@ -132,15 +132,12 @@ WHY: dict[int, str] = {
        "lands beside the section's lift, its self-reported number a tenth of its verified "
        "one: it fits its own coarse mesh, and a 3D run on the mesh it verifies on is what "
        "would remove that (TRADEOFFS, 'What 1 % would take').",
-    3: "A helix has no section model; the 3D run's self-reported number is a fraction of its "
-       "verified one: the thin tube's optimum sits in its own mesh's discretisation error "
-       "(8 P2 segments round the tube at h 0.5, not the 13 meant: TRADEOFFS, 'The tube's "
-       "and the shell's ring'; h 1.0 was 10 points stiffer than its "
-       "refinement), and two reproductions of this config ended at nearly the same "
-       "self-reported number with verified numbers far apart (TRADEOFFS, 'Two "
-       "reproductions'). Removing it takes the next mesh, h 0.25: 4x the DOFs, about an hour "
-       "a run on 2 cores by the measured scaling (TRADEOFFS, 'Scenes 3 and 5', 'What 1 % "
-       "would take').",
+    3: "A helix has no section model. On the tube meshed with its ring counts restored (16 "
+       "P2 segments round at h 0.5; TRADEOFFS, 'The tube's and the shell's ring') the run's "
+       "self-reported number is a third of its verified one: its own mesh does not yet "
+       "follow its optimum. The next mesh verifies at ~1.85M DOFs, beyond the largest solve "
+       "from rest made on this machine (TRADEOFFS, 'What 1 % would take', 'The "
+       "verification, verified').",
     4: "The section reaches its target, but the 3D disk grown from rest buckles out of axial "
        "symmetry (the departure in the table): an equilibrium the section cannot reach, and "
        "no filter helps (each sends the growth from rest onto another equilibrium); the 3D "
