@@ -270,6 +270,13 @@ def test_a_section_run_writes_its_growth_and_the_lifted_number_a_3d_run_starts_f
     assert check["verified"]["lifted"]["dofs"] == lifted["dofs"]
     assert check["check"]["second"] == pytest.approx(lifted["relative"], rel=1e-8)
     assert check["check"]["first"] == lifted["relative"] and check["check"]["settled"]
+    # --lift none: the section against the section's own verified number
+    assert run_cli("verify", str(out), "--refine", "1", "--lift", "none", "--out",
+                   str(out / "section"), "-q") == 0
+    section = read_json(out / "section" / "verify.json")
+    assert "lifted" not in section["verified"]
+    assert section["check"]["first"] == verified["relative"]
+    assert section["check"]["second"] == pytest.approx(verified["relative"], rel=1e-9)
     # growth.start: lifted: a 3D run starts from it, on the body the run lifted onto
     start = shared_tmp / "start"
     assert run_cli("run", str(solid), "--out", str(start), "-q", "--set", "mesh.refine=1",

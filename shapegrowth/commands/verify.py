@@ -77,7 +77,15 @@ def reverify(run_dir: Path, refine: int | None = None, out: Path | None = None,
             io.read_growth(run_dir / "growth.npz", model.state.applied)
         verified = dataclasses.replace(verified,
                                        lifted=lifted_model(model, solid, compare=solved)[0])
-    check = Reverified(first.headline, first.refine, verified)
+    # like with like: a lift against the run's lift, the model itself against its own
+    if solid is None:
+        before = first.relative
+    else:
+        before = first.lifted.relative if first.lifted is not None else None
+        if first.lifted is None:
+            log.warning("verify: the run was not lifted (verify.lift unset): the lift has no "
+                        "number of the run's to be checked against")
+    check = Reverified(before, first.refine, verified)
     io.write_json(out / "verify.json", {"run": str(run_dir), "verified": verified.to_json(),
                                         "check": check.to_json()})
     _report(check)
