@@ -132,6 +132,7 @@ def _numbers(kind: type, what: str, valid):
 
 
 _sizes = _numbers(float, "positive mesh sizes", lambda v: v > 0)
+_ranks = _numbers(int, "rank counts >= 1", lambda v: v >= 1)
 
 
 def _refinements(text: str) -> int:
@@ -139,7 +140,6 @@ def _refinements(text: str) -> int:
     if not text.isdigit() or not 1 <= int(text) <= 4:
         raise argparse.ArgumentTypeError(f"a number of refinements from 1 to 4, got {text!r}")
     return int(text)
-_ranks = _numbers(int, "rank counts >= 1", lambda v: v >= 1)
 
 
 def _view(text: str) -> list[float]:
