@@ -218,14 +218,11 @@ def _twice(scene: Scene, folder: Path, s: RunSummary) -> str:
     if check is None:
         return scene.twice_limit or "not run (`--twice`)"
     v = check.second
-    lifted = v.lifted
-    dofs = lifted.dofs if lifted is not None else v.dofs
-    stability = lifted.stability if lifted is not None else v.stability
     if check.second_headline is None:
-        status = lifted.status if lifted is not None else v.status
-        return f"x{v.refine}, {dofs} DOFs: {status}"
+        return f"x{v.refine}, {v.headline_dofs} DOFs: {v.headline_status}"
     verdict = "settled" if check.settled else "**not settled**"
-    return (f"{_pc(check.second_headline)} (x{v.refine}, {dofs} DOFs{_unstable(stability)}): "
+    return (f"{_pc(check.second_headline)} (x{v.refine}, {v.headline_dofs} DOFs"
+            f"{_unstable(v.headline_stability)}): "
             f"moved {100 * (check.moved or 0):.2f} of {100 * (check.allowed or 0):.2f} "
             f"points, {verdict}")
 
@@ -306,7 +303,7 @@ def _unstable(stability) -> str:
 def _seconds(s: RunSummary) -> str:
     """Wall time: the whole run, and of it the verification (and lift)."""
     v = s.verified
-    check = 0.0 if v is None else v.wall_s + (v.lifted.wall_s if v.lifted else 0.0)
+    check = 0.0 if v is None else v.check_wall_s
     return f"{s.wall_time_s:.0f} ({check:.0f})"
 
 
@@ -340,8 +337,7 @@ def _time_taken(rows: list[tuple[Scene, RunSummary | None]], out: Path) -> list[
     checks = [c for c in (read_twice(out / scene.name, s) for scene, s in rows
                           if s is not None) if c is not None]
     if checks:
-        seconds = sum(c.second.wall_s + (c.second.lifted.wall_s if c.second.lifted else 0.0)
-                      for c in checks)
+        seconds = sum(c.second.check_wall_s for c in checks)
         text += (f" The {len(checks)} refined-twice checks (`--twice`) took {seconds / 60:.0f} "
                  "min more.")
     return [text, ""]

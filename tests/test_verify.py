@@ -79,6 +79,25 @@ def test_a_verified_number_on_an_unstable_state_says_so_beside_it():
     assert "0.476 %" in alone and "UNSTABLE since 0.35" in alone
 
 
+
+def test_the_headline_names_the_lifted_model_where_there_is_one():
+    """A lifted section leads with its 3D body's number, DOFs, status and stability; the
+    check's wall time is the section's and the lift's together."""
+    from shapegrowth.optim.lift import Lifted
+    from shapegrowth.physics.stability import Stability
+
+    stable = Stability((0.6, 1.2), 0)
+    unstable = Stability((-0.02,), 1, lost_at=0.5, kind="bifurcation")
+    lifted = Lifted(None, None, 24480, 35.0, "failed: no load step", "disk_cone", None, unstable)
+    v = Verified(0.0038, 0.00476, 1, 42306, 13.7, False, "solved", lifted, stable)
+    assert v.headline is None and v.headline_dofs == 24480
+    assert v.headline_status == "failed: no load step" and v.headline_stability is unstable
+    assert v.check_wall_s == pytest.approx(48.7)
+    alone = Verified(0.0038, 0.00476, 1, 42306, 13.7, False, "solved", None, stable)
+    assert alone.headline == 0.00476 and alone.headline_dofs == 42306
+    assert alone.headline_status == "solved" and alone.headline_stability is stable
+    assert alone.check_wall_s == 13.7
+
 @pytest.mark.slow
 @pytest.mark.mpi
 def test_every_run_reports_its_verified_error(shared_tmp):

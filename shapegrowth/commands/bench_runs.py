@@ -74,7 +74,7 @@ def timing(case: RunCase, summary: RunSummary, checks: list[Check]) -> RunTiming
     """The run's timing from its summary and its verified.csv."""
     spent = checks[-1].verification_seconds if checks else 0.0
     v = summary.verified
-    final_check = (v.wall_s + (v.lifted.wall_s if v.lifted else 0.0)) if v else 0.0
+    final_check = v.check_wall_s if v else 0.0
     run_s = summary.wall_time_s - spent
     split = dict(summary.time_split)
     split["verification"] = spent + final_check

@@ -103,12 +103,12 @@ def _report(check: Reverified) -> None:
              f"{v.dofs} DOFs")
     if check.second_headline is None:
         log.warning("verify: no equilibrium from rest on the mesh refined %d time(s): %s",
-                    v.refine, v.lifted.status if v.lifted else v.status)
+                    v.refine, v.headline_status)
         return
-    tag = unstable_tag(v.lifted.stability if v.lifted else v.stability)
+    tag = unstable_tag(v.headline_stability)
     log.info("verified on the mesh refined %d time(s): shape error %s (%s, grown from rest, "
              "%.1f s%s); the run's own, refined %d time(s): %s", v.refine,
-             _pc(check.second_headline), where, v.wall_s + (v.lifted.wall_s if v.lifted else 0),
+             _pc(check.second_headline), where, v.check_wall_s,
              tag, check.first_refine, _pc(check.first))
     if v.lifted is not None:
         log.info("the section itself on the mesh refined %d time(s): %s", v.refine,
@@ -117,5 +117,4 @@ def _report(check: Reverified) -> None:
         verdict = "settled" if check.settled else "NOT settled"
         log.info("the finer mesh moved it by %s, a third of the way to 1 %% is %s: %s",
                  _pc(check.moved), _pc(check.allowed), verdict)
-    log.info("the finer state's stability: %s",
-             describe(v.lifted.stability if v.lifted else v.stability))
+    log.info("the finer state's stability: %s", describe(v.headline_stability))

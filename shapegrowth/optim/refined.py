@@ -59,6 +59,26 @@ class Verified:
         lifted, else the refined model's."""
         return self.lifted.relative if self.lifted is not None else self.relative
 
+    @property
+    def headline_dofs(self) -> int:
+        """The state DOFs of the model the headline was measured on."""
+        return self.lifted.dofs if self.lifted is not None else self.dofs
+
+    @property
+    def headline_status(self) -> str:
+        """"solved", or why the headline's model found no equilibrium from rest."""
+        return self.lifted.status if self.lifted is not None else self.status
+
+    @property
+    def headline_stability(self) -> Stability | None:
+        """The stability of the headline's state."""
+        return self.lifted.stability if self.lifted is not None else self.stability
+
+    @property
+    def check_wall_s(self) -> float:
+        """The verification's wall time, the lift included."""
+        return self.wall_s + (self.lifted.wall_s if self.lifted is not None else 0.0)
+
     def to_json(self) -> dict[str, object]:
         """summary.json's ``verified`` (``lifted`` only where a reduced model was lifted)."""
         out: dict[str, object] = dataclasses.asdict(self)
