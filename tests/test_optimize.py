@@ -440,6 +440,16 @@ def test_reproduce_compare_flags_a_difference_beyond_the_tolerance(tmp_path):
     text, agree = reproduce.compare(tmp_path / "a", tmp_path / "b", rtol=0.05)
     assert not agree and "| beam_ring | finished | True | False |" in text
     assert "| beam_wave | verified | 0.05 | 0.0505 | 9.9e-03 | yes |" in text
+    # the headline in points: 5.00 % against 5.05 % is 0.05 points, within 0.3
+    assert "| beam_wave | 5.00 % | 5.05 % | 0.05 | yes |" in text
+    runs = {name: (reproduce.finished(tmp_path / "a" / name),
+                   reproduce.finished(tmp_path / "c" / name)) for name in ("beam_wave",)}
+    assert reproduce.headline_spread(runs)[1]
+    write(tmp_path / "d", 1.1)  # 5.0 % against 5.5 %: 0.5 points
+    runs = {"beam_wave": (reproduce.finished(tmp_path / "a" / "beam_wave"),
+                          reproduce.finished(tmp_path / "d" / "beam_wave"))}
+    lines, within = reproduce.headline_spread(runs)
+    assert not within and "| beam_wave | 5.00 % | 5.50 % | 0.50 | **no** |" in lines
 
 
 def test_the_state_tolerance_follows_the_optimisers_progress():
