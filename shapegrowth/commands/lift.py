@@ -49,12 +49,19 @@ def reduced_run(run_dir: Path, solve: bool = True, command: str = "lift",
         raise InputError(f"{command}: {err}") from None
     model.growth.assign(model.state.applied.values())
     if solve:  # a 2D solve: seconds
-        report = model.state.solve()
-        if not report.converged:  # back to the run's growth, at rest
-            log.warning("%s: the best growth from rest: %s", command, report.reason)
-            model.state.reset()
-            io.read_growth(run_dir / "growth.npz", model.state.applied)
+        solve_best_growth(model, run_dir, command)
     return cfg, summary, model
+
+
+def solve_best_growth(model: ForwardModel, run_dir: Path, command: str) -> bool:
+    """The model in equilibrium at the run's best growth from rest; where that solve does
+    not converge, back at rest with the run's growth (said in one line) (collective)."""
+    report = model.state.solve()
+    if not report.converged:
+        log.warning("%s: the best growth from rest: %s", command, report.reason)
+        model.state.reset()
+        io.read_growth(run_dir / "growth.npz", model.state.applied)
+    return report.converged
 
 
 def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:

@@ -29,7 +29,7 @@ from ..io import files as io
 from ..optim.lift import lifted_model, verification_model
 from ..optim.refined import Reverified, verify
 from ..physics.stability import describe, unstable_tag
-from .lift import reduced_run
+from .lift import reduced_run, solve_best_growth
 
 log = logging.getLogger(__name__)
 
@@ -71,10 +71,7 @@ def reverify(run_dir: Path, refine: int | None = None, out: Path | None = None,
              f"; lifted onto {solid.name} (its mesh refined {solid.mesh.refine} time(s))")
     verified = verify(model, refine)
     if solid is not None:  # the departure compares the section's own equilibrium (seconds)
-        solved = model.state.solve().converged
-        if not solved:
-            model.state.reset()
-            io.read_growth(run_dir / "growth.npz", model.state.applied)
+        solved = solve_best_growth(model, run_dir, "verify")
         verified = dataclasses.replace(verified,
                                        lifted=lifted_model(model, solid, compare=solved)[0])
     # like with like: a lift against the run's lift, the model itself against its own
