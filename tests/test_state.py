@@ -67,14 +67,18 @@ def test_axial_growth_of_a_clamped_tube_elongates_exactly(cells, shared_tmp):
     assert summary["stress_l2"] < 1e-9
 
 
-def bent_beam(kappa: float, h: float, layers: int, chord_steps: int = 8
-              ) -> tuple[float, ForwardModel]:
+def bent_beam(kappa: float, h: float, layers: int, chord_steps: int = 8,
+              step_rtol: float | None | str = "default") -> tuple[float, ForwardModel]:
     """Relative L2 error of the displacement against the exact arc, and the model."""
+    solver: dict[str, object] = {"chord_steps": chord_steps}
+    if step_rtol != "default":
+        solver["continuation"] = {"step_rtol": step_rtol}
     cfg = from_dict({
         "name": "arc", "parameters": {"kappa": kappa},
         "geometry": {"kind": "box", "length": 1.0, "width": 0.1, "thickness": 0.02},
         "mesh": {"size": h, "layers": layers}, "model": {"degree": 2},
-        "boundary": {"clamp": "x1_min"}, "solver": {"chord_steps": chord_steps},
+        "boundary": {"clamp": "x1_min"},
+        "solver": solver,
         "growth": {"degree": 2, "eigenvalues": {"initial": ["(1 + kappa*x3)**2", 1, 1]}}})
     model = ForwardModel.build(cfg)
     report = model.state.solve()
@@ -323,6 +327,25 @@ def test_warm_start_after_a_small_growth_change_is_cheap():
         assert counts[0][0] <= 6 and counts[0][1] == 0
         assert counts[1][1] >= 2 and counts[1][0] <= newton, counts
         assert np.abs(states[1] - states[0]).max() < 1e-10 * np.abs(states[0]).max()
+
+
+def test_loose_intermediate_load_steps_reach_the_same_equilibrium_in_fewer_iterations():
+    """The half circle grown from rest with Newton's tolerance loosened to 1e-4 at the load
+    steps before the full growth (``solver.continuation.step_rtol``, the default) and with
+    solver.rtol at every step: the same equilibrium (the last step converges to
+    solver.rtol), in fewer Newton iterations.  Measured: 60 against 72 (without the hold
+    after a cut, 87: 0.1 converged in 4, 0.2 failed, again and again)."""
+    runs = []
+    for step_rtol in (None, 1e-4):
+        error, model = bent_beam(math.pi, 0.1, 1, step_rtol=step_rtol)
+        model.state.reset()
+        report = model.state.solve()  # from rest again, counted
+        assert report.converged and report.reached == pytest.approx(1.0)
+        runs.append((error, model.state.u.x.array.copy(), report))
+    (e0, u0, r0), (e1, u1, r1) = runs
+    assert np.abs(u1 - u0).max() < 1e-9 * np.abs(u0).max()
+    assert abs(e1 - e0) < 1e-9
+    assert r1.newton_iterations < r0.newton_iterations, (r0.history, r1.history)
 
 
 def test_a_dropped_model_is_freed_with_its_solvers():
