@@ -343,8 +343,10 @@ def test_loose_intermediate_load_steps_reach_the_same_equilibrium_in_fewer_itera
         assert report.converged and report.reached == pytest.approx(1.0)
         runs.append((error, model.state.u.x.array.copy(), report))
     (e0, u0, r0), (e1, u1, r1) = runs
-    assert np.abs(u1 - u0).max() < 1e-9 * np.abs(u0).max()
-    assert abs(e1 - e0) < 1e-9
+    # the same to Newton's tolerance on a beam soft in bending (its last step starts from
+    # another state; measured: 3e-13 on tetrahedra, 8.4e-9 on hexahedra)
+    assert np.abs(u1 - u0).max() < 1e-7 * np.abs(u0).max()
+    assert abs(e1 - e0) < 1e-7
     assert r1.newton_iterations < r0.newton_iterations, (r0.history, r1.history)
 
 
