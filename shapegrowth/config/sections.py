@@ -362,8 +362,9 @@ class ContinuationConfig:
     step_rtol: float | None = option(
         "Newton's relative tolerance at the load steps before the full growth (their "
         "equilibria only start the next step; null: solver.rtol); the last step always "
-        "converges to solver.rtol (measured: docs/PERFORMANCE.md, \"Continuation from rest\")",
-        1.0e-4, gt=0, lt=1)
+        "converges to solver.rtol (opt-in; 1e-4 measured in docs/PERFORMANCE.md, "
+        "\"Continuation from rest\")",
+        None, gt=0, lt=1)
 
 
 @dataclass(frozen=True)
