@@ -258,7 +258,8 @@ def surface_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
 def crossing_pairs(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """The pairs of triangles (m, 2) that pass through each other: an edge of one crossing
     the other's interior (Moller-Trumbore, strictly inside both), among the pairs whose
-    bounding spheres meet and which share no vertex (neighbours touch, they do not cross).
+    bounding spheres meet, which share no vertex (neighbours touch, they do not cross), and
+    neither of which lies strictly on one side of the other's plane.
     Two flat triangles overlapping in one plane, and a crossing exactly through an edge or a
     vertex, are not seen (a triangle given twice is)."""
     from scipy.spatial import cKDTree
