@@ -53,8 +53,8 @@ _API = {
     "evaluate_at": ("shapegrowth.compat", "evaluate_at_points"),
     "surface": ("shapegrowth.io.plotting", "surface"),
     "draw": ("shapegrowth.io.plotting", "draw"),
-    "read_surface": ("shapegrowth.shape.surface_files", "read_surface"),
-    "write_stl": ("shapegrowth.shape.surface_files", "write_stl"),
+    "read_surface": ("shapegrowth.shape.surface_formats", "read_surface"),
+    "write_stl": ("shapegrowth.shape.surface_formats", "write_stl"),
     "RigidFit": ("shapegrowth.shape.rigid_fit", "RigidFit"),
 }
 __all__ = [
@@ -117,7 +117,7 @@ if TYPE_CHECKING:
     from .physics.state import StateProblem
     from .shape.hausdorff import PointCloud, SmoothHausdorff
     from .shape.rigid_fit import RigidFit
-    from .shape.surface_files import read_surface, write_stl
+    from .shape.surface_formats import read_surface, write_stl
     from .status import Outcome, Status
 
 

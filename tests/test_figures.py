@@ -13,7 +13,8 @@ from mpi4py import MPI
 
 from shapegrowth.io.figures3d import _extruded, _revolved, boundary_edges
 from shapegrowth.io.plotting import Surface
-from shapegrowth.shape.surface_files import TriangleSurface, check_closed, oriented
+from shapegrowth.shape.surface_files import check_closed, oriented
+from shapegrowth.shape.surface_formats import TriangleSurface
 
 
 def section(lo=(1.0, 0.0), hi=(2.0, 1.0), n=3) -> Surface:

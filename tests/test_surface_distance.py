@@ -118,7 +118,7 @@ def test_a_flat_face_against_an_open_cap_is_the_closed_form(shared_tmp, hole):
     from shapegrowth.config import load
     from shapegrowth.optim.objective import Objective
     from shapegrowth.physics.model import ForwardModel
-    from shapegrowth.shape.surface_files import write_stl
+    from shapegrowth.shape.surface_formats import write_stl
 
     rho, apex, half = 1.0, 0.06, np.arcsin(0.3)
     centre = np.array([0.5, 0.0, apex - rho])
@@ -156,7 +156,7 @@ def test_the_gradient_against_an_open_surface_file_is_exact(shared_tmp):
     from conftest import read_json, run_cli
     from mpi4py import MPI
 
-    from shapegrowth.shape.surface_files import write_stl
+    from shapegrowth.shape.surface_formats import write_stl
 
     stl = shared_tmp / "cap_for_taylor_mm.stl"
     if MPI.COMM_WORLD.rank == 0:

@@ -19,13 +19,8 @@ from mpi4py import MPI
 from shapegrowth.config import ConfigError, TransformConfig, load
 from shapegrowth.shape.clouds import QuadratureCloud
 from shapegrowth.shape.placement import Moments, principal_alignment, rotation_matrix
-from shapegrowth.shape.surface_files import (
-    TriangleSurface,
-    check_closed,
-    filled_surface,
-    read_surface,
-    write_stl,
-)
+from shapegrowth.shape.surface_files import check_closed, filled_surface
+from shapegrowth.shape.surface_formats import TriangleSurface, read_surface, write_stl
 from shapegrowth.shape.targets import file_cloud, simplex_cloud, target_cloud
 
 CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"
@@ -407,7 +402,7 @@ def _top_face_stl(path, lift: float, scale: float = 1.0, turn: float = 0.0):
     from shapegrowth import compat
     from shapegrowth.config import load
     from shapegrowth.physics.model import ForwardModel
-    from shapegrowth.shape.surface_files import write_stl
+    from shapegrowth.shape.surface_formats import write_stl
 
     cfg = load(CONFIGS / "tiny" / "beam_wave.yaml", ["objective.compare=top"])
     domain = ForwardModel.build(cfg).domain
@@ -449,7 +444,7 @@ def test_an_open_surface_is_refused_where_it_cannot_be_compared(tmp_path):
     from shapegrowth.config import load
     from shapegrowth.optim.objective import Objective
     from shapegrowth.physics.model import ForwardModel
-    from shapegrowth.shape.surface_files import write_stl
+    from shapegrowth.shape.surface_formats import write_stl
 
     stl = _top_face_stl(tmp_path / "top.stl", 0.01)
     cases = {"volume": stl}
