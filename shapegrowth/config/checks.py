@@ -24,6 +24,8 @@ if TYPE_CHECKING:
     from .root import Config
 
 
+# the surface files target.surface may name (read by shape/surface_formats.py)
+SURFACE_FORMATS = (".stl", ".obj", ".ply", ".msh")
 # bodies whose mesh can be graded towards their clamp (mesh.clamp_size)
 GRADED = (("box", "x1_min"), ("tube", "x1_min"), ("annulus", "inner_rim"),
           ("cylinder_shell", "bottom_rim"))
@@ -375,7 +377,7 @@ def _check_target(cfg: Config, errors: list[str]) -> None:
     if target.surface is not None:
         if not Path(target.surface).is_file():
             errors.append(f"target.surface: file '{target.surface}' not found")
-        elif Path(target.surface).suffix.lower() not in (".stl", ".obj", ".ply", ".msh"):
+        elif Path(target.surface).suffix.lower() not in SURFACE_FORMATS:
             errors.append(f"target.surface: '{target.surface}' has an unknown format; give "
                           ".stl, .obj, .ply or .msh")
         if cfg.dim != 3 and not cfg.section.reduced:

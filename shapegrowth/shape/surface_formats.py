@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from ..config import ConfigError
+from ..config.checks import SURFACE_FORMATS
 
-SURFACE_FORMATS = (".stl", ".obj", ".ply", ".msh")
 KEY = "target.surface"
 
 
