@@ -96,7 +96,12 @@ class Objective:
                 image = target_fit.place(image)
             self._target_pieces = Simplices(np.concatenate(self.comm.allgather(image[pieces])))
             self._target_probes = image
-        self.target_size = self.target.extent(self.comm)  # of the sample points, as rho_H sees it
+        # of the sample points, as rho_H sees it; a section of a body of revolution is
+        # measured against the revolved body's size (its diameter), as its 3D body and its
+        # lift are: two surfaces of revolution about one axis are as far apart (Hausdorff)
+        # as their sections (a nearest point lies in the same meridian), so the section's
+        # relative error then reads as the 3D body's would
+        self.target_size = self.target.extent(self.comm, revolved=cfg.section.axisymmetric)
         self.divergence = ShapeDivergence(
             SmoothHausdorff(alpha=h.alphas[0], beta=h.beta, gamma=h.gamma, phi=h.phi,
                             cutoff=h.cutoff, taper=h.taper, precision=h.precision), h.form)

@@ -86,14 +86,18 @@ class PointCloud:
             self._tree = cKDTree(points)
         return self._tree
 
-    def extent(self, comm: MPI.Comm = MPI.COMM_SELF) -> float:
-        """Largest extent of the cloud along a coordinate axis."""
+    def extent(self, comm: MPI.Comm = MPI.COMM_SELF, revolved: bool = False) -> float:
+        """Largest extent of the cloud along a coordinate axis; ``revolved``: the points are
+        (R, Z) of a body of revolution about Z (R >= 0), and the extent is the revolved
+        body's, max(2 max R, Z's extent), the same as a 3D cloud of that body would give."""
         pts = self.points
         lo, hi = cellgrid.bounding_box(pts)
         if not len(pts):
             lo, hi = np.full(pts.shape[1], np.inf), np.full(pts.shape[1], -np.inf)
         comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
         comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
+        if revolved:  # across the axis: the diameter
+            lo[0], hi[0] = -max(abs(lo[0]), abs(hi[0])), max(abs(lo[0]), abs(hi[0]))
         return float((hi - lo).max())
 
 
