@@ -20,7 +20,9 @@ eigenvalues, however far from 0 they are: ``negative``.  The few eigenvalues nea
 ``lowest``, in increasing order: near a threshold, the ones that decide it.  A state far past
 one can have more negative eigenvalues than ``lowest`` holds, and all of them farther from 0
 than its positive ones (measured: the unfiltered shell's lift, 111 negative, ``lowest``
-0.16, ...): ``negative`` says so.
+0.16, ...): ``negative`` says so, and the eigenproblem is then solved again about a target
+below 0, moved down by doublings until negative ones are among those found, so that
+``lowest`` (and the mode a branch switch follows) holds unstable modes where there are any.
 
 Along a growth path from rest, physics/paths.py watches it and, on request, leaves it for a
 stable branch.
@@ -47,6 +49,7 @@ log = logging.getLogger(__name__)
 # MUMPS's workspace relaxation (ICNTL(14), % over its estimate), raised where the LDL^T's
 # delayed pivots outgrow it (INFOG(1) = -9, seen on PETSc 3.22 with 2 ranks on a cube)
 WORKSPACE = (50, 200, 800)
+RETARGETS = 12  # doublings of the target below 0 that look for negative eigenvalues (4096x)
 
 
 def without_zeros(A: PETSc.Mat) -> PETSc.Mat:
@@ -158,7 +161,43 @@ class StabilityProblem:
         # 2 ranks: 796 -> 559 MB)
         heap.trim()
         self.state.tangent_into(self.K)
+        factor = self._solve(0.0)
+        negative = int(factor.getMumpsInfog(12))
+        pairs = self._pairs()
+        # Negative eigenvalues that all lie beyond the ones nearest 0 (a state far past a
+        # threshold; measured: the shell's lift, 4 negative, the nearest 0.020, 0.020, 0.044)
+        # are looked for about a target below 0, doubled from the farthest found until one
+        # is among those found: the unstable modes are what a branch switch follows.
+        reach = max((abs(value) for value, _ in pairs), default=1.0)
+        target = 0.0
+        for _ in range(RETARGETS):
+            if negative == 0 or (pairs and pairs[0][0] < 0.0):
+                break
+            target = 2.0 * target if target else -2.0 * reach
+            below = int(self._solve(target).getMumpsInfog(12))  # eigenvalues below it
+            pairs = self._pairs()
+            log.debug("  stability: %d negative beyond the %d nearest 0; about %.4g: %s",
+                      negative, self.count, target, [round(v, 6) for v, _ in pairs])
+            if below == 0 and not (pairs and pairs[0][0] < 0.0):
+                break  # none below the target, and none found above it
+        if target:
+            self.eps.setTarget(0.0)
+        self._order = [i for _, i in pairs]
+        lowest = tuple(float(value) for value, _ in pairs)
+        if pairs:
+            self.eps.getEigenpair(pairs[0][1], compat.petsc_vec(self.mode))
+            self.mode.x.scatter_forward()
+            scale = _global_max(self.mode, np.abs(self.mode.x.array).max(initial=0.0))
+            if scale > 0:
+                self.mode.x.array[:] /= scale
+        heap.trim()
+        return Stability(lowest, negative)
+
+    def _solve(self, target: float) -> PETSc.Mat:
+        """Solve the eigenproblem about ``target``; the shifted operator's factor (whose
+        inertia is the number of eigenvalues below the target)."""
         failure = ""
+        self.eps.setTarget(target)
         for relax in WORKSPACE:
             self.options.defaults["st_mat_mumps_icntl_14"] = relax
             self.eps.setOperators(self.K, self.M)
@@ -172,24 +211,18 @@ class StabilityProblem:
                 failure = f"PETSc error {linear.error_code(err)}"
         else:
             raise StabilityError(f"the tangent's eigenproblem failed ({failure})")
-        factor = self.eps.getST().getKSP().getPC().getFactorMatrix()
-        negative = int(factor.getMumpsInfog(12))
+        return self.eps.getST().getKSP().getPC().getFactorMatrix()
+
+    def _pairs(self) -> list[tuple[float, int]]:
+        """The lowest ``count`` of the last solve's converged eigenpairs (those nearest its
+        target): (value, index), lowest first."""
         pairs = []
         vr = self.K.createVecRight()
         for i in range(self.eps.getConverged()):
-            value = self.eps.getEigenpair(i, vr).real
-            pairs.append((value, i))
+            pairs.append((self.eps.getEigenpair(i, vr).real, i))
+        vr.destroy()
         pairs.sort()
-        self._order = [i for _, i in pairs[:self.count]]
-        lowest = tuple(float(value) for value, _ in pairs[:self.count])
-        if pairs:
-            self.eps.getEigenpair(pairs[0][1], compat.petsc_vec(self.mode))
-            self.mode.x.scatter_forward()
-            scale = _global_max(self.mode, np.abs(self.mode.x.array).max(initial=0.0))
-            if scale > 0:
-                self.mode.x.array[:] /= scale
-        heap.trim()
-        return Stability(lowest, negative)
+        return pairs[:self.count]
 
     def modes_into(self, modes: list[dolfinx.fem.Function]) -> list[float]:
         """The last :meth:`assess`'s lowest eigenpairs: their eigenvalues, and their modes
