@@ -261,6 +261,12 @@ def test_verify_checks_a_run_on_its_mesh_refined_once_more(shared_tmp):
     assert again["check"]["moved"] < 1e-9 * own["relative"] and again["check"]["settled"]
     assert run_cli("verify", run, "-q") == 0
     twice = read_json(run / "verify-r2" / "verify.json")
+    # -q prints nothing; the check's progress is in its folder, a line per load step
+    progress = (run / "verify-r2" / "progress.log").read_text().splitlines()
+    assert any("load step" in line for line in progress)
+    said = [line.split(" ", 2)[2] for line in progress]  # after the date and the time
+    assert any(line.startswith("verified on the mesh refined 2 time(s)") for line in said)
+    assert said[-1].startswith("wrote") and said[-1].endswith("verify.json")
     v, check = twice["verified"], twice["check"]
     assert v["refine"] == 2 and v["status"] == "solved" and v["dofs"] > 3 * own["dofs"]
     assert (check["first"], check["second"]) == (own["relative"], v["relative"])

@@ -12,8 +12,9 @@ times more than the run's lift was.
 The check (:class:`~shapegrowth.optim.refined.Reverified`): the finer number must move by
 less than a third of the way from the run's number to 1 %, so that no further refinement
 is likely to carry it across the scenes' 1 %.  Writes verify.json (the new verification,
-the run's number and the check) to ``--out`` (default RUN_DIR/verify-rN).  ``--set``
-applies to the run's config (and to the 3D config of a lift), e.g.
+the run's number and the check) to ``--out`` (default RUN_DIR/verify-rN), and beside it,
+as the check goes, progress.log (each load step, stamped with the time, even with ``-q``).
+``--set`` applies to the run's config (and to the 3D config of a lift), e.g.
 ``solver.linear=mumps_ooc`` for a mesh whose factor does not fit in memory.
 """
 
@@ -26,6 +27,7 @@ from pathlib import Path
 from ..config import Config, load
 from ..errors import InputError
 from ..io import files as io
+from ..logs import progress_file
 from ..optim.lift import lifted_model, verification_model
 from ..optim.refined import Reverified, verify
 from ..physics.stability import describe, unstable_tag
@@ -66,27 +68,29 @@ def reverify(run_dir: Path, refine: int | None = None, out: Path | None = None,
     refine = first.refine + 1 if refine is None else refine
     out = run_dir / f"verify-r{refine}" if out is None else out
     solid = lift_config(cfg, lift_path, overrides, refine) if cfg.section.reduced else None
-    log.info("verify: %s's best growth on its mesh refined %d time(s), grown from rest%s",
-             cfg.name, refine, "" if solid is None else
-             f"; lifted onto {solid.name} (its mesh refined {solid.mesh.refine} time(s))")
-    verified = verify(model, refine)
-    if solid is not None:  # the departure compares the section's own equilibrium (seconds)
-        solved = solve_best_growth(model, run_dir, "verify")
-        verified = dataclasses.replace(verified,
-                                       lifted=lifted_model(model, solid, compare=solved)[0])
-    # like with like: a lift against the run's lift, the model itself against its own
-    if solid is None:
-        before = first.relative
-    else:
-        before = first.lifted.relative if first.lifted is not None else None
-        if first.lifted is None:
-            log.warning("verify: the run was not lifted (verify.lift unset): the lift has no "
-                        "number of the run's to be checked against")
-    check = Reverified(before, first.refine, verified)
-    io.write_json(out / "verify.json", {"run": str(run_dir), "verified": verified.to_json(),
-                                        "check": check.to_json()})
-    _report(check)
-    log.info("wrote %s", out / "verify.json")
+    with progress_file(out / "progress.log", model.comm):  # its load steps, even with -q
+        log.info("verify: %s's best growth on its mesh refined %d time(s), grown from rest%s",
+                 cfg.name, refine, "" if solid is None else
+                 f"; lifted onto {solid.name} (its mesh refined {solid.mesh.refine} time(s))")
+        verified = verify(model, refine)
+        if solid is not None:  # the departure compares the section's own equilibrium (s)
+            solved = solve_best_growth(model, run_dir, "verify")
+            verified = dataclasses.replace(
+                verified, lifted=lifted_model(model, solid, compare=solved)[0])
+        # like with like: a lift against the run's lift, the model itself against its own
+        if solid is None:
+            before = first.relative
+        else:
+            before = first.lifted.relative if first.lifted is not None else None
+            if first.lifted is None:
+                log.warning("verify: the run was not lifted (verify.lift unset): the lift has "
+                            "no number of the run's to be checked against")
+        check = Reverified(before, first.refine, verified)
+        io.write_json(out / "verify.json", {"run": str(run_dir),
+                                            "verified": verified.to_json(),
+                                            "check": check.to_json()})
+        _report(check)
+        log.info("wrote %s", out / "verify.json")
     return check
 
 
