@@ -312,8 +312,12 @@ def _how(s: RunSummary) -> str:
 
 
 def _unstable(stability) -> str:
-    """An unstable verified state is no shape a real body keeps: said beside its number."""
+    """An unstable verified state is no shape a real body keeps: said beside its number; a
+    stable one reached by leaving the path from rest (solver.branch: switch) says where."""
     where = unstable_since(stability)
+    if where is None and stability is not None and stability.switched_at is not None:
+        return (f", on the stable branch it switched to at {stability.switched_at:.3g} of "
+                "the growth")
     return "" if where is None else f", **unstable**{where}"
 
 

@@ -408,6 +408,22 @@ def test_reproduce_runs_the_restarts_only_when_asked():
         "disk_cone_from_axi"]
 
 
+def test_reproduce_says_beside_a_verified_number_which_branch_it_is_on():
+    """RESULTS.md: an unstable state is flagged; a stable one reached by switching branch
+    says where it left the path from rest; one on the path from rest says nothing."""
+    from shapegrowth.physics.stability import Stability
+
+    reproduce = _reproduce_module()
+    assert reproduce._unstable(Stability((0.1,), 0)) == ""
+    assert reproduce._unstable(None) == ""
+    unstable = Stability((-0.3,), 4, lost_at=1.0, kind="bifurcation")
+    assert reproduce._unstable(unstable) == ", **unstable** since 1 of the growth"
+    switched = Stability((4.6e-6,), 0, lost_at=1.0, kind="bifurcation", branch="switched",
+                         switched_at=1.0)
+    assert reproduce._unstable(switched) == (
+        ", on the stable branch it switched to at 1 of the growth")
+
+
 def test_reproduce_compare_flags_a_difference_beyond_the_tolerance(tmp_path):
     """--compare: two reproductions that differ by 1 % agree at rtol 5 % and not at 0.5 %; a
     different problem size never agrees; a missing run is reported, not skipped."""
