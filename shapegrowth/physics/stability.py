@@ -180,8 +180,6 @@ class StabilityProblem:
                       negative, self.count, target, [round(v, 6) for v, _ in pairs])
             if below == 0 and not (pairs and pairs[0][0] < 0.0):
                 break  # none below the target, and none found above it
-        if target:
-            self.eps.setTarget(0.0)
         self._order = [i for _, i in pairs]
         lowest = tuple(float(value) for value, _ in pairs)
         if pairs:
