@@ -52,6 +52,11 @@ WORKSPACE = (50, 200, 800)
 RETARGETS = 12  # doublings of the target below 0 that look for negative eigenvalues (4096x)
 
 
+def _holds_negative(pairs: list[tuple[float, int]]) -> bool:
+    """Whether eigenpairs (value, index), lowest first, hold a negative eigenvalue."""
+    return bool(pairs) and pairs[0][0] < 0.0
+
+
 def without_zeros(A: PETSc.Mat) -> PETSc.Mat:
     """A copy of the assembled AIJ matrix ``A`` without its stored zeros.  The vector mass
     matrix is assembled into the tangent's pattern (3 x 3 blocks in 3D), but u . v couples no
@@ -171,14 +176,14 @@ class StabilityProblem:
         reach = max((abs(value) for value, _ in pairs), default=1.0)
         target = 0.0
         for _ in range(RETARGETS):
-            if negative == 0 or (pairs and pairs[0][0] < 0.0):
+            if negative == 0 or _holds_negative(pairs):
                 break
             target = 2.0 * target if target else -2.0 * reach
             below = int(self._solve(target).getMumpsInfog(12))  # eigenvalues below it
             pairs = self._pairs()
             log.debug("  stability: %d negative beyond the %d nearest 0; about %.4g: %s",
                       negative, self.count, target, [round(v, 6) for v, _ in pairs])
-            if below == 0 and not (pairs and pairs[0][0] < 0.0):
+            if below == 0 and not _holds_negative(pairs):
                 break  # none below the target, and none found above it
         self._order = [i for _, i in pairs]
         lowest = tuple(float(value) for value, _ in pairs)

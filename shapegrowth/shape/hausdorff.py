@@ -97,7 +97,8 @@ class PointCloud:
         comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
         comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
         if revolved:  # across the axis: the diameter
-            lo[0], hi[0] = -max(abs(lo[0]), abs(hi[0])), max(abs(lo[0]), abs(hi[0]))
+            radius = max(abs(lo[0]), abs(hi[0]))
+            lo[0], hi[0] = -radius, radius
         return float((hi - lo).max())
 
 
