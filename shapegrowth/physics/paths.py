@@ -131,7 +131,8 @@ def switch_branch(problem: StabilityProblem, before: Stability) -> Stability | N
     mode by the amplitude that lowers the energy most, and find the equilibrium there; keep it
     where it has fewer negative eigenvalues (returned), else put the state back (None)."""
     state = problem.state
-    if not before.lowest or before.lowest[0] >= 0.0:  # the negative ones lie beyond those found
+    # assess() looks below 0 for the unstable modes; none found there: no mode to follow
+    if not before.lowest or before.lowest[0] >= 0.0:
         return None
     start = state.u.x.array.copy()
     mode = problem.mode.x.array.copy()
