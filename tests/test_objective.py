@@ -108,3 +108,42 @@ def test_a_face_is_compared_with_the_image_of_the_same_face():
         assert area == pytest.approx(stretch * 0.1, rel=1e-9)
         if stretch == 1.0:
             assert objective.exact_hausdorff() == pytest.approx(0.01, rel=1e-9)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("config, onto_itself, lifted, unstructured", [
+    (BEAM, ["1 - x1", "-x2", "x3"], ["x1", "x2", "x3 + 0.01"], True),
+    # gmsh's triangles of the square turn onto themselves
+    (CONFIGS / "tiny" / "square_disk.yaml", ["-x2", "x1"], ["x1", "x2 + 0.1"], False)])
+def test_the_boundaries_distance_has_no_sampling(config, onto_itself, lifted, unstructured):
+    """Objective.surface_hausdorff (verified.surface): a body compared as a volume, at rest,
+    against a map that turns it onto itself (the beam half a turn about its vertical axis,
+    the square a quarter turn) is the same set: its boundary lies on the map's image of its
+    boundary to round-off, while its volume cloud's points, turned on the beam's unstructured
+    tetrahedra, land between the cloud's points (the sampling that the boundaries' distance leaves
+    out).  Moved rigidly by d, both measures read d exactly; the same on 2 ranks."""
+    turned = load(config, ["target.map=[" + ", ".join(onto_itself) + "]"])
+    objective = Objective(turned, ForwardModel.build(turned).state)
+    size = objective.target_size
+    assert objective.surface_hausdorff() == pytest.approx(0.0, abs=1e-12 * size)
+    assert objective.surface_relative() == pytest.approx(0.0, abs=1e-12)
+    if unstructured and turned.mesh.cells == "simplex":  # a grid turns onto its own points
+        assert objective.exact_hausdorff() > 1e-3 * size
+    moved = load(config, ["target.map=[" + ", ".join(lifted) + "]"])
+    objective = Objective(moved, ForwardModel.build(moved).state)
+    d = 0.01 if moved.model.dim == 3 else 0.1
+    assert objective.surface_hausdorff() == pytest.approx(d, rel=1e-9)
+    assert objective.exact_hausdorff() == pytest.approx(d, rel=1e-9)
+
+
+@pytest.mark.simplex  # target.mesh reads simplices
+def test_a_file_target_compared_as_a_volume_has_no_surface_number(shared_tmp):
+    """A mesh-file target compared as a volume has no boundary image to measure against:
+    surface_hausdorff says so (None), and verified.surface stays empty."""
+    base = [f"mesh.cache_dir={shared_tmp}"]
+    cfg = load(CUBE, base)
+    ForwardModel.build(cfg)  # writes the mesh file
+    msh = mesh_path(cfg)
+    by_mesh = load(CUBE, base + [f"target.mesh={msh}"])
+    objective = Objective(by_mesh, ForwardModel.build(by_mesh).state)
+    assert objective.surface_hausdorff() is None and objective.surface_relative() is None

@@ -20,7 +20,7 @@ from mpi4py import MPI
 import shapegrowth as sg
 from shapegrowth import compat
 from shapegrowth.config.reduction import Section
-from shapegrowth.optim.lift import lift_growth, lifted_model
+from shapegrowth.optim.lift import lift_growth, lifted_model, verification_model
 from shapegrowth.physics.kinematics import Kinematics
 from shapegrowth.physics.material import MooneyRivlin
 
@@ -69,6 +69,9 @@ def test_the_section_models_are_chosen_by_the_model_keys():
     (["verify.lift_refine=0"], "verify.lift_refine: refines the mesh of verify.lift, which is "
                                "not set"),
     (["verify.lift_refine=4"], "verify.lift_refine"),
+    (["verify.lift_degree=2"], "verify.lift_degree: the growth's degree on the body of "
+                               "verify.lift, which is not set"),
+    (["verify.lift_degree=3"], "verify.lift_degree"),
 ])
 def test_a_section_config_that_cannot_work_is_refused_naming_the_key(sets, message):
     with pytest.raises(sg.ConfigError) as err:
@@ -193,6 +196,35 @@ def test_the_lift_carries_a_linear_growth_onto_the_3d_nodes_exactly(path, sets, 
     assert np.allclose(model3.growth.eigenvalues[1].x.array, 1.1, rtol=0, atol=1e-14)
 
 
+@pytest.mark.mpi
+def test_a_lift_of_degree_two_carries_a_quadratic_growth_exactly():
+    """verify.lift_degree: a growth quadratic in the section's (X1, X3), held exactly by the
+    section's degree-2 growth, lifted onto the 3D body's degree-1 growth is only
+    interpolated (between its nodes it misses by the curvature times h^2 / 8); on the
+    verification model of degree 2 every 3D node holds the expression, and so does every
+    point between them."""
+    def expression(x):
+        return 1 + 0.2 * x[0] ** 2 + 500 * x[2] ** 2
+    text = "1 + 0.2*x1**2 + 500*x3**2"
+    reduced = sg.load_config(WAVE, ["model.dim=2", "model.reduction=plane_stress",
+                                    "growth.degree=2",
+                                    f"growth.eigenvalues.initial=['{text}', 1.1, 0.9]"])
+    section = sg.build_model(reduced)
+    solid = sg.load_config(WAVE)
+    probes = np.array([[0.51, 0.013, 0.003], [0.27, -0.031, -0.0071]])
+    missed = []
+    for degree in (None, 2):
+        model3 = sg.build_model(verification_model(solid, 0, degree))
+        assert model3.cfg.growth.degree == (degree or 1)
+        lift_growth(reduced, section.growth, model3)
+        value = sg.evaluate_at(model3.growth.eigenvalues[0], probes)[:, 0]
+        missed.append(np.abs(value - expression(probes.T)).max())
+        if degree == 2:
+            x = model3.growth.space.tabulate_dof_coordinates().T
+            assert np.abs(model3.growth.eigenvalues[0].x.array - expression(x)).max() < 1e-12
+    assert missed[1] < 1e-12 < 1e-4 < missed[0]
+
+
 def _shell(dim: int) -> sg.Config:
     raw = {"name": "shell", "geometry": {"kind": "cylinder_shell", "radius": 1.0, "height": 0.4,
                                          "thickness": 0.1},
@@ -279,6 +311,9 @@ def test_a_section_run_writes_its_growth_and_the_lifted_number_a_3d_run_starts_f
     assert run_cli("lift", str(out), "--config", str(solid), "-q") == 0
     again = read_json(out / "lift" / "lift.json")
     assert again["lifted"]["relative"] == pytest.approx(lifted["relative"], rel=1e-8)
+    # the boundaries' distance, surface to surface: the 3D body's and the section's edges'
+    assert 0 < lifted["surface"] < 1 and 0 < verified["surface"] < 1
+    assert again["lifted"]["surface"] == pytest.approx(lifted["surface"], rel=1e-8)
     assert again["reduced_verified"] == pytest.approx(verified["relative"], rel=1e-12)
     # the bent 3D beam leaves the section (anticlastic, and the clamp holds the width); the
     # command measures it from the section solved from rest, the run from its own path's

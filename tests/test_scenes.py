@@ -53,7 +53,8 @@ def test_reduced_scene_config_runs_and_lifts_to_its_3d_config(reduced, tmp_path)
     code = run_cli("run", config, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=2",
                    "--set", "mesh.size=0.05", "--set", "mesh.layers=2",
                    "--set", "optimizer.levels=[0]", "--set", "optimizer.level_iterations=null",
-                   "--set", "verify.lift=null", "--set", "verify.lift_refine=null")
+                   "--set", "verify.lift=null", "--set", "verify.lift_refine=null",
+                   "--set", "verify.lift_degree=null")
     summary = read_json(tmp_path / "summary.json")
     assert code == 0, summary["status"]
     assert summary["iterations"] == 2 and summary["verified"]["status"] == "solved"

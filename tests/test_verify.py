@@ -106,8 +106,12 @@ def test_every_run_reports_its_verified_error(shared_tmp):
     s = read_json(shared_tmp / "summary.json")
     v = s["verified"]
     assert set(v) == {"hausdorff", "relative", "refine", "dofs", "wall_s", "branch_changed",
-                      "status", "stability"}
+                      "status", "stability", "surface"}
     assert v["stability"]["stable"] and v["stability"]["negative"] == 0
+    # the boundaries surface to surface beside the volume clouds' points: the same shape
+    # error to within the clouds' sampling (a tenth of the cells here)
+    assert 0 < v["surface"] < 1
+    assert v["surface"] == pytest.approx(v["relative"], rel=0.5)
     assert v["status"] == "solved" and v["refine"] == 1 and not v["branch_changed"]
     assert v["dofs"] > 4 * s["dofs"]["state"]  # the state on the mesh refined once
     assert v["relative"] == pytest.approx(v["hausdorff"] / s["target_size"], rel=0.05)

@@ -68,7 +68,8 @@ def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
     """The run's best growth on the 3D body of ``solid_cfg``, on that config's own
     verification model (its finest level refined ``verify.refine`` times)."""
     cfg, summary, model = reduced_run(run_dir)
-    lifted, solid = lifted_model(model, verification_model(solid_cfg, cfg.verify.lift_refine),
+    lifted, solid = lifted_model(model, verification_model(solid_cfg, cfg.verify.lift_refine,
+                                                           cfg.verify.lift_degree),
                                  compare=bool(model.state.u.x.array.any()))
     io.write_fields(out / "fields.xdmf", solid.state.u, solid.state.applied,
                     extra=[io.deformation_field(solid.state.u)])
@@ -85,10 +86,12 @@ def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
                else "n/a")
         reduced = (f"{100 * verified.relative:.3g} %" if verified and verified.relative
                    is not None else "not verified")
-        log.info("lifted to 3D: shape error %.3g %% (%s, %d DOFs, grown from rest, %.1f s%s); "
-                 "the reduced model: verified %s, self-reported %s; the 3D body leaves the "
-                 "section's shape by up to %s of the target size", 100 * lifted.relative,
-                 solid_cfg.name, lifted.dofs, lifted.wall_s, unstable_tag(lifted.stability),
+        log.info("lifted to 3D: shape error %.3g %% (%s, %d DOFs, grown from rest, %.1f s%s; "
+                 "surface to surface %s); the reduced model: verified %s, self-reported %s; "
+                 "the 3D body leaves the section's shape by up to %s of the target size",
+                 100 * lifted.relative, solid_cfg.name, lifted.dofs, lifted.wall_s,
+                 unstable_tag(lifted.stability),
+                 "n/a" if lifted.surface is None else f"{100 * lifted.surface:.3g} %",
                  reduced, own,
                  "n/a" if lifted.departure is None else f"{100 * lifted.departure:.3g} %")
     log.info("the 3D body's stability: %s", describe(lifted.stability))

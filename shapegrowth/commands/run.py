@@ -249,7 +249,8 @@ def verify_best(cfg, model: ForwardModel, settled: Settled) -> Verified | None:
              cfg.verify.refine)
     verified = verify(model, cfg.verify.refine, changed)
     if cfg.verify.lift is not None:
-        solid = verification_model(load(cfg.verify.lift), cfg.verify.lift_refine)
+        solid = verification_model(load(cfg.verify.lift), cfg.verify.lift_refine,
+                                   cfg.verify.lift_degree)
         log.info("lifting: the best growth onto the 3D body of %s (its mesh refined %d "
                  "time(s)), grown from rest", cfg.verify.lift, solid.mesh.refine)
         verified = dataclasses.replace(verified, lifted=lift(model, solid))
@@ -338,15 +339,20 @@ def _verified_text(verified: Verified | None) -> str:
     times = "once" if verified.refine == 1 else f"{verified.refine} times"
     refined = (f"verification {verified.status}" if verified.relative is None else
                f"verified shape error {100 * verified.relative:.3g} % (mesh refined {times}, "
-               f"grown from rest{unstable_tag(verified.stability)})")
+               f"grown from rest{unstable_tag(verified.stability)}{_surface(verified.surface)})")
     lifted = verified.lifted
     if lifted is None:
         return refined
     if lifted.relative is None:
         return f"lift to 3D {lifted.status}; the reduced model's {refined}"
     return (f"lifted to 3D: shape error {100 * lifted.relative:.3g} % ({lifted.config}, "
-            f"{lifted.dofs} DOFs, grown from rest{unstable_tag(lifted.stability)}); the "
-            f"reduced model's {refined}")
+            f"{lifted.dofs} DOFs, grown from rest{unstable_tag(lifted.stability)}"
+            f"{_surface(lifted.surface)}); the reduced model's {refined}")
+
+
+def _surface(relative: float | None) -> str:
+    """The boundaries' distance beside a sampled number, where it was measured."""
+    return "" if relative is None else f"; surface to surface {100 * relative:.3g} %"
 
 
 def _report_verified(verified: Verified | None, own_relative: float) -> None:

@@ -50,7 +50,7 @@ def lift_config(cfg: Config, lift_path: str | None, overrides: list[str] | tuple
     solid = load(path, overrides)
     base = cfg.verify.lift_refine if cfg.verify.lift_refine is not None \
         else solid.verify.refine
-    return verification_model(solid, base + refine - cfg.verify.refine)
+    return verification_model(solid, base + refine - cfg.verify.refine, cfg.verify.lift_degree)
 
 
 def reverify(run_dir: Path, refine: int | None = None, out: Path | None = None,
@@ -108,9 +108,9 @@ def _report(check: Reverified) -> None:
         return
     tag = unstable_tag(v.headline_stability)
     log.info("verified on the mesh refined %d time(s): shape error %s (%s, grown from rest, "
-             "%.1f s%s); the run's own, refined %d time(s): %s", v.refine,
-             _pc(check.second_headline), where, v.check_wall_s,
-             tag, check.first_refine, _pc(check.first))
+             "%.1f s%s; surface to surface %s); the run's own, refined %d time(s): %s",
+             v.refine, _pc(check.second_headline), where, v.check_wall_s, tag,
+             _pc(v.headline_surface), check.first_refine, _pc(check.first))
     if v.lifted is not None:
         log.info("the section itself on the mesh refined %d time(s): %s", v.refine,
                  _pc(v.relative))

@@ -109,6 +109,9 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     if cfg.verify.lift_refine is not None and cfg.verify.lift is None:
         errors.append("verify.lift_refine: refines the mesh of verify.lift, which is not set; "
                       "set verify.lift or remove the key")
+    if cfg.verify.lift_degree is not None and cfg.verify.lift is None:
+        errors.append("verify.lift_degree: the growth's degree on the body of verify.lift, "
+                      "which is not set; set verify.lift or remove the key")
     _check_names(cfg, errors)
     _check_expressions(cfg, growth, errors)
     if cfg.target is not None:

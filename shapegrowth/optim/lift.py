@@ -54,6 +54,7 @@ class Lifted:
     # size (None where either solve failed, or the section's state is not known)
     departure: float | None = None
     stability: Stability | None = None  # of the 3D body's state, its path from rest watched
+    surface: float | None = None  # ``relative`` surface to surface (Verified.surface)
 
     def to_json(self) -> dict[str, object]:
         """summary.json's ``verified.lifted`` and lift.json's ``lifted``."""
@@ -101,14 +102,18 @@ def lift_growth(reduced: Config, growth: Growth, solid: ForwardModel) -> None:
         interpolate_between_meshes(source, target, section.coordinates_of)
 
 
-def verification_model(solid_cfg: Config, refine: int | None = None) -> Config:
+def verification_model(solid_cfg: Config, refine: int | None = None,
+                       degree: int | None = None) -> Config:
     """The 3D config's own verification model: its finest level's mesh refined
     ``verify.refine`` more times (or ``refine``, the reduced config's ``verify.lift_refine``),
     where a 3D run of it measures its verified error; a lift is measured there, so the two
-    numbers compare."""
+    numbers compare.  ``degree`` (the reduced config's ``verify.lift_degree``): the growth's
+    degree there, where not the 3D config's own."""
     extra = solid_cfg.optimizer.levels[-1] + (solid_cfg.verify.refine if refine is None
                                               else refine)
-    return dataclasses.replace(solid_cfg, mesh=dataclasses.replace(
+    growth = solid_cfg.growth if degree is None else dataclasses.replace(solid_cfg.growth,
+                                                                         degree=degree)
+    return dataclasses.replace(solid_cfg, growth=growth, mesh=dataclasses.replace(
         solid_cfg.mesh, refine=solid_cfg.mesh.refine + extra))
 
 
@@ -142,7 +147,7 @@ def lifted_model(model: ForwardModel, solid_cfg: Config, compare: bool = True
     leaves = departure(model, solid) if compare else None
     return Lifted(hausdorff, relative, dofs, time.perf_counter() - tic, "solved",
                   solid_cfg.name, None if leaves is None or size <= 0 else leaves / size,
-                  stability), solid
+                  stability, objective.surface_relative()), solid
 
 
 def departure(model: ForwardModel, solid: ForwardModel) -> float | None:

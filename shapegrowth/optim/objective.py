@@ -90,12 +90,12 @@ class Objective:
             self.target = PointCloud(target_fit(self.target.points), self.target.weights)
         self._target_fit = target_fit
         if isinstance(self.cloud, FacetCloud) and self._target_pieces is None:
-            X, _, pieces = self.cloud.lattice(None, LATTICE)
-            image, _ = mapped_points(cfg, X)
-            if target_fit is not None:
-                image = target_fit.place(image)
-            self._target_pieces = Simplices(np.concatenate(self.comm.allgather(image[pieces])))
-            self._target_probes = image
+            self._target_pieces, self._target_probes = self._mapped_pieces(cfg, self.cloud)
+        # a volume cloud's boundary, measured surface to surface (surface_hausdorff), built
+        # on first use: a map target's only
+        self._boundary: tuple[FacetCloud, Simplices, np.ndarray] | None = None
+        self._boundary_of = cfg if (faces is None and cfg.target is not None
+                                    and cfg.target.map is not None) else None
         # of the sample points, as rho_H sees it; a section of a body of revolution is
         # measured against the revolved body's size (its diameter), as its 3D body and its
         # lift are: two surfaces of revolution about one axis are as far apart (Hausdorff)
@@ -195,16 +195,61 @@ class Objective:
             return self._surface_hausdorff()
         return exact_hausdorff(deformed, self.target, self.comm)
 
-    def _surface_hausdorff(self) -> float:
+    def surface_hausdorff(self) -> float | None:
+        """The exact Hausdorff distance between the deformed body's boundary and the
+        target's, surface to surface, at the current state: a compared face's, or for a body
+        compared as a volume with a map target its whole boundary against the map's image of
+        it (None for a file target compared as a volume) (collective).
+
+        A volume's own exact distance is between its clouds' points, and two clouds of one
+        body slid along itself are apart by up to their spacing (the ring's verification
+        cloud, turned about its axis by 0.003 of a turn or more: 0.94-1.03 % of its size,
+        where the two bodies are one set): that part is sampling, not shape.  Between the
+        boundaries there is no sampling; for a body without cavities this distance bounds
+        the distance between the two solids from above."""
+        if self._target_pieces is not None:
+            self.deformed()  # the placement of the current state
+            return self._surface_hausdorff()
+        if self._boundary_of is None:
+            return None
+        if self._boundary is None:
+            h = self._boundary_of.objective.hausdorff
+            cloud = FacetCloud(self.state.V, boundary_facets(self.state.domain.mesh),
+                               h.quadrature_degree,
+                               axisymmetric=self._boundary_of.section.axisymmetric)
+            self._boundary = (cloud, *self._mapped_pieces(self._boundary_of, cloud))
+        self.deformed()  # the placement of the current state
+        return self._surface_hausdorff(*self._boundary)
+
+    def surface_relative(self) -> float | None:
+        """:meth:`surface_hausdorff` over the target's size (collective)."""
+        surface = self.surface_hausdorff()
+        return None if surface is None or self.target_size <= 0 else surface / self.target_size
+
+    def _mapped_pieces(self, cfg: Config, cloud: FacetCloud) -> tuple[Simplices, np.ndarray]:
+        """target.map's image of ``cloud``'s flat pieces (whole on every rank, placed as the
+        target is) and of this rank's points (the probes)."""
+        X, _, pieces = cloud.lattice(None, LATTICE)
+        image, _ = mapped_points(cfg, X)
+        if self._target_fit is not None:
+            image = self._target_fit.place(image)
+        return Simplices(np.concatenate(self.comm.allgather(image[pieces]))), image
+
+    def _surface_hausdorff(self, cloud: FacetCloud | None = None,
+                           target: Simplices | None = None,
+                           probes: np.ndarray | None = None) -> float:
         """The deformed face (its facets in flat pieces) against the target's pieces, each
-        side's points measured to the other's pieces, at the placement last computed."""
-        assert isinstance(self.cloud, FacetCloud) and self._target_pieces is not None
-        _, moved, pieces = self.cloud.lattice(self.state.u, LATTICE)
+        side's points measured to the other's pieces, at the placement last computed: the
+        compared face's, or ``cloud``'s against ``target`` and its ``probes``."""
+        if cloud is None:
+            assert isinstance(self.cloud, FacetCloud) and self._target_pieces is not None
+            cloud, target, probes = self.cloud, self._target_pieces, self._target_probes
+        assert target is not None and probes is not None
+        _, moved, pieces = cloud.lattice(self.state.u, LATTICE)
         if self.fit is not None:
             moved = self.fit.place(moved)
         body = Simplices(np.concatenate(self.comm.allgather(moved[pieces])))
-        return surface_hausdorff(moved, body, self._target_probes, self._target_pieces,
-                                 self.comm)
+        return surface_hausdorff(moved, body, probes, target, self.comm)
 
     def relative_error(self) -> float:
         return self.exact_hausdorff() / self.target_size if self.target_size > 0 else np.inf

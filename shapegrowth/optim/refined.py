@@ -52,12 +52,22 @@ class Verified:
     status: str  # "solved", or "failed: <reason>"
     lifted: Lifted | None = None  # a reduced model's growth on its 3D body (verify.lift)
     stability: Stability | None = None  # of the verified state (physics/stability.py)
+    # the boundaries' exact Hausdorff distance, surface to surface, over the target's size:
+    # ``relative`` without its clouds' sampling (Objective.surface_hausdorff; None where not
+    # measured: a file target compared as a volume, a failed solve, an older summary)
+    surface: float | None = None
 
     @property
     def headline(self) -> float | None:
         """The number a run leads with: the lifted 3D error of a reduced model that was
         lifted, else the refined model's."""
         return self.lifted.relative if self.lifted is not None else self.relative
+
+    @property
+    def headline_surface(self) -> float | None:
+        """The headline's model measured boundary to boundary (without the clouds'
+        sampling), where it was."""
+        return self.lifted.surface if self.lifted is not None else self.surface
 
     @property
     def headline_dofs(self) -> int:
@@ -187,7 +197,8 @@ def verify(model: ForwardModel, refine: int, branch_changed: bool = False) -> Ve
     hausdorff = objective.exact_hausdorff()
     relative = hausdorff / objective.target_size if objective.target_size > 0 else math.inf
     return Verified(hausdorff, relative, refine, dofs, time.perf_counter() - tic,
-                    branch_changed, "solved", stability=stability)
+                    branch_changed, "solved", stability=stability,
+                    surface=objective.surface_relative())
 
 
 def branch_changed(from_rest: float | None, own: float, target_size: float) -> bool:
