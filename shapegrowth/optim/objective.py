@@ -205,8 +205,10 @@ class Objective:
         body slid along itself are apart by up to their spacing (the ring's verification
         cloud, turned about its axis by 0.003 of a turn or more: 0.94-1.03 % of its size,
         where the two bodies are one set): that part is sampling, not shape.  Between the
-        boundaries there is no sampling; for a body without cavities this distance bounds
-        the distance between the two solids from above."""
+        boundaries there is no sampling, and the boundary is measured where it is (a
+        volume's quadrature points lie inside its cells), so this distance can read higher
+        than the clouds' as well as lower (docs/TRADEOFFS.md, "The verified number's
+        sampling")."""
         if self._target_pieces is not None:
             self.deformed()  # the placement of the current state
             return self._surface_hausdorff()
