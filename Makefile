@@ -25,7 +25,7 @@ help:
 	@echo "make test-dolfinx011 - the fast tier on dolfinx 0.11's pip wheels in that root (root)"
 	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
 	@echo "make bench  - the performance benchmark (results/bench/bench.json, minutes)"
-	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (about 53 min on 2 cores)"
+	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (about 54 min on 2 cores)"
 	@echo "make reproduce-twice - the reproduction's runs verified on their meshes refined once more"
 	@echo "make reproduce-compare OTHER=DIR - results/reproduce against a second reproduction's run folders"
 	@echo "make reachable - targets a known growth produces, found again (docs/REACHABLE.md)"
