@@ -30,6 +30,16 @@ LATTICE = 4  # a face's facets in 4^2 flat triangles (2 x 4^2 on a hexahedron's 
 # 4 segments in 2D) for its distance: a P2 facet's sag over a quarter of it, 1/16 of its own
 
 
+@dataclass(frozen=True)
+class _Surface:
+    """A face measured surface to surface: its cloud, the target's pieces (whole on every
+    rank) and the target's points on this rank (the probes)."""
+
+    cloud: FacetCloud
+    pieces: Simplices
+    probes: np.ndarray
+
+
 @dataclass
 class ObjectiveValue:
     total: float  # shape + complexity: what the optimiser minimises
@@ -76,24 +86,23 @@ class Objective:
                 target_fit = RigidFit(reference.points, reference.weights, self.comm,
                                       axial=cfg.section.axisymmetric)
         # a face's exact Hausdorff distance is measured surface to surface
-        # (surface_distance.py): the target's pieces, whole on every rank, and its points
-        self._target_pieces: Simplices | None = None
-        self._target_probes = np.zeros((0, self.cloud.gdim))
+        # (surface_distance.py): the face against the target's pieces and its points
+        self._face: _Surface | None = None
         if isinstance(self.cloud, FacetCloud) and cfg.target is not None \
                 and cfg.target.map is None:
             self.target, nodes, cells = surface_target(cfg, self.cloud, self.comm)
-            self._target_pieces = Simplices(nodes[cells])
-            self._target_probes = nodes[rank_share(len(nodes), self.comm)]  # a file's vertices
+            self._face = _Surface(self.cloud, Simplices(nodes[cells]),
+                                  nodes[rank_share(len(nodes), self.comm)])  # a file's vertices
         else:
             self.target = target_cloud(cfg, self.cloud, self.comm)
         if target_fit is not None:
             self.target = PointCloud(target_fit(self.target.points), self.target.weights)
         self._target_fit = target_fit
-        if isinstance(self.cloud, FacetCloud) and self._target_pieces is None:
-            self._target_pieces, self._target_probes = self._mapped_pieces(cfg, self.cloud)
+        if isinstance(self.cloud, FacetCloud) and self._face is None:
+            self._face = self._mapped_surface(cfg, self.cloud)
         # a volume cloud's boundary, measured surface to surface (surface_hausdorff), built
         # on first use: a map target's only
-        self._boundary: tuple[FacetCloud, Simplices, np.ndarray] | None = None
+        self._boundary: _Surface | None = None
         self._boundary_of = cfg if (faces is None and cfg.target is not None
                                     and cfg.target.map is not None) else None
         # of the sample points, as rho_H sees it; a section of a body of revolution is
@@ -155,8 +164,8 @@ class Objective:
         if self._complexity is not None:
             complexity = self.comm.allreduce(
                 dolfinx.fem.assemble_scalar(self._complexity), MPI.SUM)
-        hausdorff = (pair.hausdorff if self._target_pieces is None
-                     else self._surface_hausdorff())
+        hausdorff = (pair.hausdorff if self._face is None
+                     else self._surface_hausdorff(self._face))
         value = ObjectiveValue(result.value + complexity, pair.value, complexity,
                                pair.d_target_to_body, pair.d_body_to_target,
                                hausdorff, result.value, self.alpha)
@@ -191,8 +200,8 @@ class Objective:
     def exact_hausdorff(self) -> float:
         """The exact Hausdorff distance: of the clouds, or of a face's surfaces."""
         deformed = self.deformed()  # (and the placement of the current state)
-        if self._target_pieces is not None:
-            return self._surface_hausdorff()
+        if self._face is not None:
+            return self._surface_hausdorff(self._face)
         return exact_hausdorff(deformed, self.target, self.comm)
 
     def surface_hausdorff(self) -> float | None:
@@ -209,49 +218,43 @@ class Objective:
         volume's quadrature points lie inside its cells), so this distance can read higher
         than the clouds' as well as lower (docs/TRADEOFFS.md, "The verified number's
         sampling")."""
-        if self._target_pieces is not None:
-            self.deformed()  # the placement of the current state
-            return self._surface_hausdorff()
-        if self._boundary_of is None:
-            return None
-        if self._boundary is None:
+        if self._face is None and self._boundary is None:
+            if self._boundary_of is None:
+                return None
             h = self._boundary_of.objective.hausdorff
             cloud = FacetCloud(self.state.V, boundary_facets(self.state.domain.mesh),
                                h.quadrature_degree,
                                axisymmetric=self._boundary_of.section.axisymmetric)
-            self._boundary = (cloud, *self._mapped_pieces(self._boundary_of, cloud))
-        self.deformed()  # the placement of the current state
-        return self._surface_hausdorff(*self._boundary)
+            self._boundary = self._mapped_surface(self._boundary_of, cloud)
+        if self.fit is not None:
+            self.deformed()  # the placement of the current state
+        surface = self._face if self._face is not None else self._boundary
+        assert surface is not None
+        return self._surface_hausdorff(surface)
 
     def surface_relative(self) -> float | None:
         """:meth:`surface_hausdorff` over the target's size (collective)."""
         surface = self.surface_hausdorff()
         return None if surface is None or self.target_size <= 0 else surface / self.target_size
 
-    def _mapped_pieces(self, cfg: Config, cloud: FacetCloud) -> tuple[Simplices, np.ndarray]:
-        """target.map's image of ``cloud``'s flat pieces (whole on every rank, placed as the
-        target is) and of this rank's points (the probes)."""
+    def _mapped_surface(self, cfg: Config, cloud: FacetCloud) -> _Surface:
+        """``cloud`` against target.map's image of its flat pieces (whole on every rank,
+        placed as the target is) and of this rank's points (the probes)."""
         X, _, pieces = cloud.lattice(None, LATTICE)
         image, _ = mapped_points(cfg, X)
         if self._target_fit is not None:
             image = self._target_fit.place(image)
-        return Simplices(np.concatenate(self.comm.allgather(image[pieces]))), image
+        return _Surface(cloud, Simplices(np.concatenate(self.comm.allgather(image[pieces]))),
+                        image)
 
-    def _surface_hausdorff(self, cloud: FacetCloud | None = None,
-                           target: Simplices | None = None,
-                           probes: np.ndarray | None = None) -> float:
+    def _surface_hausdorff(self, surface: _Surface) -> float:
         """The deformed face (its facets in flat pieces) against the target's pieces, each
-        side's points measured to the other's pieces, at the placement last computed: the
-        compared face's, or ``cloud``'s against ``target`` and its ``probes``."""
-        if cloud is None:
-            assert isinstance(self.cloud, FacetCloud) and self._target_pieces is not None
-            cloud, target, probes = self.cloud, self._target_pieces, self._target_probes
-        assert target is not None and probes is not None
-        _, moved, pieces = cloud.lattice(self.state.u, LATTICE)
+        side's points measured to the other's pieces, at the placement last computed."""
+        _, moved, pieces = surface.cloud.lattice(self.state.u, LATTICE)
         if self.fit is not None:
             moved = self.fit.place(moved)
         body = Simplices(np.concatenate(self.comm.allgather(moved[pieces])))
-        return surface_hausdorff(moved, body, probes, target, self.comm)
+        return surface_hausdorff(moved, body, surface.probes, surface.pieces, self.comm)
 
     def relative_error(self) -> float:
         return self.exact_hausdorff() / self.target_size if self.target_size > 0 else np.inf
