@@ -1,6 +1,6 @@
 """Run the paper's scenes and write docs/RESULTS.md from what they leave behind.
 
-    .venv/bin/python scripts/reproduce.py [--ranks 2] [--only NAME,... | --all] [--twice]
+    .venv/bin/python scripts/reproduce.py [--ranks 2] [--only NAME,... | --all] [--cube] [--twice]
                                           [--set KEY=VALUE ...] [--out results/reproduce]
                                           [--results docs/RESULTS.md]
     .venv/bin/python scripts/reproduce.py --compare OTHER_OUT [--out results/reproduce]
@@ -19,6 +19,12 @@ from the summaries alone: every number in RESULTS.md comes from a run folder.  T
 leads with each run's verified shape error (its best growth grown from rest on its mesh
 refined, and for a section model on the 3D body, lifted); the run's own number beside it is
 labelled self-reported.
+
+``--cube`` adds scene 6 as the paper ran it: the 3D cube of side 4 grown into a cylinder,
+fixed against free frame (configs/cube_cylinder_*.yaml), from the target's metric and from
+the uniform growth, its free frame staged from the fixed frame's optimum; four runs, tabled
+with the others and their fixed/free ratios beside the plane square's (``--all`` makes
+them too).
 
 ``--twice`` verifies the verification: each finished run's best growth on its mesh
 refined once more than its own verification (``shapegrowth verify RUN``, a section lifted
@@ -65,9 +71,16 @@ class Scene:
     model: str
     paper: str
     overrides: tuple[str, ...] = ()
-    extra: bool = False  # a measurement run only with --all or --only
+    # not in the default set: "restart" (a 3D run from a section's optimum, with --all) or
+    # "cube" (scene 6's 3D cube, with --cube or --all); either can be named with --only
+    group: str = ""
     # why the refined-twice check is not run (a measured limit of this machine), or ""
     twice_limit: str = ""
+
+    @property
+    def extra(self) -> bool:
+        """A measurement beside the default set."""
+        return bool(self.group)
 
 
 _SAME = "indistinguishable from the target"
@@ -92,12 +105,21 @@ _LARGEST = "the largest solve from rest made here: 1 153 920 DOFs, 13.6 GB out o
 _FLARE_TWICE = ("787 968 DOFs, grown from rest out of core with the config's load steps, "
                 "reached 0.919 of the growth in 2 h 10 min, its steps cut to 0.006 from 0.9 on; "
                 "stopped there (TRADEOFFS, 'The verification, verified')")
+# The 3D cube's uniform start: lambda = (9 pi/4, 9 pi/4, 1), the isotropic growth whose
+# stress-free square has the disk's area; an isotropic growth has dJ/dtheta = 0, so its free
+# partner starts from the fixed frame's optimum at angle 0 (the symmetry-breaking that needs
+# no arbitrary choice: it contains the fixed frame, so it cannot end worse than it)
+_UNIFORM = ("growth.start=given",
+            "growth.eigenvalues.initial=[7.0685834705770345, 7.0685834705770345, 1.0]")
+# The cube refined twice: a solid body, not a wall; not measured on this machine
+_CUBE_TWICE = ("not run: x2 is ~370k DOFs of a solid cube (8x the verification's; a solid "
+               "block's factor fills most: PERFORMANCE.md, 'The largest solve from rest')")
 SCENES = [
     Scene(1, "beam_wave", "beam_wave", "3D", f"{_SAME} (Figs. 3a, 4)", twice_limit=_block(2)),
     Scene(1, "beam_wave_2d", "beam_wave_2d", "X1-X3 section, plane stress", f"{_SAME}",
           twice_limit=f"lifted {_block(2)}"),
     Scene(1, "beam_wave_from_2d", "beam_wave", "3D from the section's optimum (40 + 20)",
-          _SAME, (*_FROM, "growth.from_run={out}/beam_wave_2d"), extra=True),
+          _SAME, (*_FROM, "growth.from_run={out}/beam_wave_2d"), group="restart"),
     Scene(2, "beam_ring", "beam_ring", "3D", f"{_SAME} (Fig. 3b)"),
     Scene(2, "beam_ring_2d", "beam_ring_2d", "X1-X3 section, plane stress", _SAME,
           # lifted where scene 1's is (verify.lift_refine: 2), so checked once more at x3
@@ -108,19 +130,37 @@ SCENES = [
           twice_limit=f"not run: x2 is ~1.1M DOFs (8x the verification's; {_LARGEST})"),
     Scene(4, "disk_cone_axi", "disk_cone_axi", "(R, Z) section, axisymmetric", _SAME),
     Scene(4, "disk_cone_from_axi", "disk_cone", "3D from the section's optimum (40 + 20)",
-          _SAME, (*_FROM, "growth.from_run={out}/disk_cone_axi"), extra=True),
+          _SAME, (*_FROM, "growth.from_run={out}/disk_cone_axi"), group="restart"),
     Scene(5, "cylinder_flare", "cylinder_flare", "3D", f"{_SAME} (Fig. 8)",
           twice_limit=f"x2: {_FLARE_TWICE}"),
     Scene(5, "cylinder_flare_axi", "cylinder_flare_axi", "(R, Z) section, axisymmetric", _SAME,
           twice_limit=f"lifted x2, not run: the shell of cylinder_flare's check ({_FLARE_TWICE})"),
     Scene(5, "cylinder_flare_from_axi", "cylinder_flare", "3D from the section's optimum (60)",
           _SAME, ("growth.start=lifted", "optimizer.max_iterations=60",
-                  "growth.from_run={out}/cylinder_flare_axi"), extra=True),
+                  "growth.from_run={out}/cylinder_flare_axi"), group="restart"),
     Scene(6, "square_circle_fixed", "square_circle_fixed", "2D plane strain, fixed frame",
           "rho_H 13.9 x the free frame's (Figs. 10, 11)"),
     Scene(6, "square_circle_free", "square_circle_free", "2D plane strain, free frame",
           "rho_H 1/13.9 of the fixed frame's"),
+    # the 3D cube as the paper ran it, from the target's metric and, staged, from the uniform
+    # growth whose stress-free square has the disk's area (TRADEOFFS, 'The fixed/free ratio,
+    # compared fairly')
+    Scene(6, "cube_cylinder_fixed", "cube_cylinder_fixed", "3D cube, fixed frame",
+          "rho_H 13.9 x the free frame's", group="cube", twice_limit=_CUBE_TWICE),
+    Scene(6, "cube_cylinder_free", "cube_cylinder_free", "3D cube, free frame (three angles)",
+          "rho_H 1/13.9 of the fixed frame's", group="cube", twice_limit=_CUBE_TWICE),
+    Scene(6, "cube_cylinder_fixed_uniform", "cube_cylinder_fixed",
+          "3D cube, fixed frame, from the uniform growth", "-", _UNIFORM, group="cube",
+          twice_limit=_CUBE_TWICE),
+    Scene(6, "cube_cylinder_free_staged", "cube_cylinder_free",
+          "3D cube, free frame, from the fixed frame's uniform-start optimum at angle 0", "-",
+          ("growth.start=run", "growth.from_run={out}/cube_cylinder_fixed_uniform",
+           "growth.angles.initial=[0.0, 0.0, 0.0]"), group="cube", twice_limit=_CUBE_TWICE),
 ]
+# the 3D cube's pairs, fixed against free, and the start each pair shares
+CUBE_PAIRS = (("cube_cylinder_fixed", "cube_cylinder_free", "from the target's metric"),
+              ("cube_cylinder_fixed_uniform", "cube_cylinder_free_staged",
+               "from the uniform growth, the free frame staged from the fixed frame's optimum"))
 PAPER_RATIO = 13.8889
 # two reproductions agree when every compared value does to this fraction of itself
 RTOL = 0.05
@@ -173,12 +213,13 @@ WHY: dict[int, str] = {
 }
 
 
-def selected(only: set[str], everything: bool) -> list[Scene]:
+def selected(only: set[str], everything: bool, cube: bool = False) -> list[Scene]:
     """The runs to make: those named, else all of them with ``everything``, else all but the
-    extra measurements."""
+    extra measurements (the 3D cube's runs too with ``cube``)."""
     if only:
         return [scene for scene in SCENES if scene.name in only]
-    return [scene for scene in SCENES if everything or not scene.extra]
+    return [scene for scene in SCENES
+            if everything or not scene.extra or (cube and scene.group == "cube")]
 
 
 finished = launch.read_summary  # the run's summary.json (written when a run ends), or None
@@ -248,10 +289,11 @@ def _twice(scene: Scene, folder: Path, s: RunSummary) -> str:
 
 def draw_3d(scene: Scene, out: Path, ranks: int) -> None:
     """shape3d.png for a finished run that has none (made before runs drew it): the best
-    growth grown from rest on the run's last mesh (`shapegrowth figure`); scenes 1-5 only
-    (the square is a plane body, its picture is shape.png)."""
+    growth grown from rest on the run's last mesh (`shapegrowth figure`); not for a plane
+    body (the square: its picture is shape.png)."""
     folder = out / scene.name
-    if scene.number > 5 or (folder / "shape3d.png").exists() or finished(folder) is None:
+    if scene.model.startswith("2D") or (folder / "shape3d.png").exists() or \
+            finished(folder) is None:
         return
     print(f"reproduce: drawing {scene.name} in 3D", flush=True)
     launch.launch(["figure", folder, "-q"], ranks, env=ONE_BLAS_THREAD, cwd=ROOT)
@@ -362,8 +404,8 @@ def _time_taken(rows: list[tuple[Scene, RunSummary | None]], out: Path) -> list[
         return []
     text = (f"The {len(default)} runs of this reproduction took **{sum(default) / 60:.0f} "
             "min** together (their wall times added up, verification and lift included)")
-    text += (f"; the {len(extra)} extra measurements (`--all`) another {sum(extra) / 60:.0f} "
-             "min." if extra else ".")
+    text += (f"; the {len(extra)} extra measurements (`--all`, `--cube`) another "
+             f"{sum(extra) / 60:.0f} min." if extra else ".")
     checks = [c for c in (read_twice(out / scene.name, s) for scene, s in rows
                           if s is not None) if c is not None]
     if checks:
@@ -400,12 +442,12 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
              "| refined once more | self-reported | state DOFs | design DOFs | iterations "
              "| wall s (verification) | status | paper |",
              "|---|---|---|---:|---:|---|---|---:|---:|---:|---:|---:|---|---|"]
-    missing = []  # the extra measurements not made: named below the table, not tabled
+    missing: dict[str, list[str]] = {}  # extra measurements not made: named, not tabled
     for scene, s in rows:
         head = f"| {scene.number} | {scene.name} | {scene.model} |"
         if s is None:
             if scene.extra:
-                missing.append(scene.name)
+                missing.setdefault(scene.group, []).append(scene.name)
             else:
                 lines.append(f"{head} - | - | not run | - | - | - | - | - | - | - | "
                              f"{scene.paper} |")
@@ -416,24 +458,31 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
             f"{_twice(scene, out / scene.name, s)} | {_pc(s.relative_error)} | "
             f"{s.dofs.state} | {s.dofs.design} | {s.iterations} | {_seconds(s)}{ranks} | "
             f"{s.status} | {scene.paper} |")
-    if missing:
-        lines += ["", f"Not in this reproduction: {', '.join(missing)} (3D runs restarted "
-                      "from a section's optimum, measurements of the reduced models: "
-                      "`scripts/reproduce.py --all`; their last measured numbers are in "
-                      "docs/TRADEOFFS.md, 'The reproduction, with the departure')."]
+    if "restart" in missing:
+        lines += ["", f"Not in this reproduction: {', '.join(missing['restart'])} (3D runs "
+                      "restarted from a section's optimum, measurements of the reduced "
+                      "models: `scripts/reproduce.py --all`; their last measured numbers are "
+                      "in docs/TRADEOFFS.md, 'The reproduction, with the departure')."]
+    if "cube" in missing:
+        lines += ["", f"Not in this reproduction: {', '.join(missing['cube'])} (scene 6's 3D "
+                      "cube as the paper ran it: `make reproduce-cube`; its last measured "
+                      "numbers are in docs/TRADEOFFS.md, 'The fixed/free ratio, compared "
+                      "fairly')."]
     summaries = {scene.name: s for scene, s in rows}
+    square_above = None
     fixed, free = summaries.get("square_circle_fixed"), summaries.get("square_circle_free")
     if fixed and free and fixed.rho_H_final and free.rho_H_final:
         ratio = fixed.rho_H_final / free.rho_H_final
         lines += ["", f"rho_H(square_circle_fixed) / rho_H(square_circle_free) = **{ratio:.4g}** "
                       f"(paper: {PAPER_RATIO}; same alpha, beta, gamma in both configs)."]
         rho_tt = target_floor(fixed)
-        if rho_tt is not None and free.rho_H_final > rho_tt:
-            above = (fixed.rho_H_final - rho_tt) / (free.rho_H_final - rho_tt)
+        square_above = _above(fixed, free, rho_tt)
+        if rho_tt is not None and square_above is not None:
             lines += [f"Above the floor rho_H(T, T) = {rho_tt:.4g} (the value rho_H takes when "
-                      f"the body is the target): **{above:.4g}** (TRADEOFFS, 'The fixed/free "
-                      "ratio, compared fairly')."]
+                      f"the body is the target): **{square_above:.4g}** (TRADEOFFS, 'The "
+                      "fixed/free ratio, compared fairly')."]
         lines.append("")
+    lines += _cube_ratios(summaries, square_above)
     lines += ["", "## Where a scene misses 1 %", "",
               "Scenes 1-5 ask for a shape error of at most 1 % of the target size, verified. "
               "Each scene's best verified run, and for a scene above 1 % what its runs "
@@ -477,6 +526,47 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
     return "\n".join(lines).rstrip() + "\n"
 
 
+def _above(fixed: RunSummary, free: RunSummary, floor: float | None) -> float | None:
+    """(rho_H fixed - floor) / (rho_H free - floor), where the free frame is above it."""
+    if floor is None or not fixed.rho_H_final or not free.rho_H_final \
+            or free.rho_H_final <= floor:
+        return None
+    return (fixed.rho_H_final - floor) / (free.rho_H_final - floor)
+
+
+def _cube_ratios(summaries: dict[str, RunSummary | None], square_above: float | None
+                 ) -> list[str]:
+    """Scene 6 as the paper ran it: the 3D cube's fixed/free ratio from each start, raw and
+    above its floor, beside the plane-strain square's and the paper's; and whether the free
+    frame (which contains the fixed one) ended no worse, verified."""
+    lines: list[str] = []
+    for fixed_name, free_name, start in CUBE_PAIRS:
+        fixed, free = summaries.get(fixed_name), summaries.get(free_name)
+        if not (fixed and free and fixed.rho_H_final and free.rho_H_final):
+            continue
+        floor = target_floor(fixed)
+        above = _above(fixed, free, floor)
+        vf, vg = verified_error(fixed), verified_error(free)
+        verdict = ("" if vf is None or vg is None else
+                   "; the free frame ends no worse, verified" if vg <= vf else
+                   "; the free frame ends **worse**, verified")
+        lines.append(
+            f"- {start}: rho_H {fixed.rho_H_final:.4g} fixed, {free.rho_H_final:.4g} free, "
+            f"ratio **{fixed.rho_H_final / free.rho_H_final:.4g}**"
+            + ("" if above is None or floor is None else
+               f"; above the floor rho_H(T, T) = {floor:.4g}: **{above:.4g}**")
+            + f" (verified {_pc(vf)} fixed, {_pc(vg)} free{verdict}).")
+    if not lines:
+        return []
+    square = ("" if square_above is None else
+              f", the plane-strain square's {square_above:.4g} above its floor (above)")
+    return ["", "### Scene 6 as the paper ran it: the 3D cube", "",
+            "The cube of side 4 grown into the cylinder of diameter 12, its height kept "
+            "(configs/cube_cylinder_fixed.yaml, cube_cylinder_free.yaml: three eigenvalues; "
+            "the free frame with three Rodrigues angles), fixed against free frame from the "
+            f"same start, beside the paper's {PAPER_RATIO}{square}:", "", *lines, ""]
+
+
 # (label, how to read it from a summary); compared to a relative tolerance
 COMPARED: list[tuple[str, Callable[[RunSummary], float | None]]] = [
     ("verified", verified_error),
@@ -518,6 +608,8 @@ def compare(out: Path, other: Path, rtol: float) -> tuple[str, bool]:
     for scene in SCENES:
         name = scene.name
         a, b = finished(out / name), finished(other / name)
+        if a is None and b is None and scene.extra:
+            continue  # a measurement neither reproduction made
         if a is None or b is None:
             row(name, "finished", a is not None, b is not None, False)
             continue
@@ -535,13 +627,16 @@ def compare(out: Path, other: Path, rtol: float) -> tuple[str, bool]:
             largest = max(largest, rel or 0.0)
             row(name, label, va, vb, rel is not None and rel <= rtol,
                 "-" if rel is None else f"{rel:.1e}")
-    if "square_circle_fixed" in runs and "square_circle_free" in runs:
-        (fa, fb), (ga, gb) = runs["square_circle_fixed"], runs["square_circle_free"]
+    for pair, (fixed, free) in (("square", ("square_circle_fixed", "square_circle_free")),
+                                *((f, (f, g)) for f, g, _ in CUBE_PAIRS)):
+        if fixed not in runs or free not in runs:
+            continue
+        (fa, fb), (ga, gb) = runs[fixed], runs[free]
         if fa.rho_H_final and fb.rho_H_final and ga.rho_H_final and gb.rho_H_final:
             ra, rb = fa.rho_H_final / ga.rho_H_final, fb.rho_H_final / gb.rho_H_final
             rel = _relative(ra, rb) or 0.0
             largest = max(largest, rel)
-            row("square", "fixed / free ratio", ra, rb, rel <= rtol, f"{rel:.1e}")
+            row(pair, "fixed / free ratio", ra, rb, rel <= rtol, f"{rel:.1e}")
     spread_lines = headline_spread(runs)[0]
     verdict = (f"The two reproductions agree: every compared quantity to {100 * rtol:g} % of "
                f"its value (the largest difference is {100 * largest:.2g} %), the problem "
@@ -598,6 +693,8 @@ def main() -> int:
     parser.add_argument("--only", default="", help="comma-separated config names")
     parser.add_argument("--all", dest="everything", action="store_true",
                         help="also the 3D runs restarted from a section's optimum")
+    parser.add_argument("--cube", action="store_true",
+                        help="also scene 6's 3D cube as the paper ran it (four runs)")
     parser.add_argument("--twice", action="store_true",
                         help="verify each finished run on its mesh refined once more")
     parser.add_argument("--set", dest="overrides", action="append", default=[])
@@ -620,7 +717,7 @@ def main() -> int:
               f"{', '.join(scene.name for scene in SCENES)})", file=sys.stderr)
         return 2
     rows: list[tuple[Scene, RunSummary | None]] = []
-    chosen = selected(only, args.everything)
+    chosen = selected(only, args.everything, args.cube)
     for scene in SCENES:
         if scene in chosen:
             summary = run_scene(scene, args.out.resolve(), args.ranks, args.overrides)

@@ -14,6 +14,8 @@ import numpy as np
 import pytest
 from conftest import BIN, CONFIGS, ROOT, read_json, run_cli, run_subprocess
 
+import shapegrowth as sg
+
 ARC = CONFIGS / "tiny" / "beam_arc.yaml"
 
 
@@ -399,16 +401,81 @@ def _reproduce_module():
 
 
 def test_reproduce_runs_the_restarts_only_when_asked():
-    """The 3D restarts from a section's optimum are measurements: not in the default set,
-    in it with --all, and each can be named."""
+    """The 3D restarts from a section's optimum and the 3D cube are measurements: not in the
+    default set, the cube's with --cube, all of them with --all, and each can be named."""
     reproduce = _reproduce_module()
-    extras = {"beam_wave_from_2d", "disk_cone_from_axi", "cylinder_flare_from_axi"}
+    restarts = {"beam_wave_from_2d", "disk_cone_from_axi", "cylinder_flare_from_axi"}
+    cube = {"cube_cylinder_fixed", "cube_cylinder_free", "cube_cylinder_fixed_uniform",
+            "cube_cylinder_free_staged"}
     every = {scene.name for scene in reproduce.SCENES}
-    assert {scene.name for scene in reproduce.SCENES if scene.extra} == extras
-    assert {scene.name for scene in reproduce.selected(set(), False)} == every - extras
+    assert {scene.name for scene in reproduce.SCENES if scene.extra} == restarts | cube
+    assert {scene.name for scene in reproduce.selected(set(), False)} == every - restarts - cube
+    assert {scene.name for scene in reproduce.selected(set(), False, cube=True)} == \
+        every - restarts
     assert {scene.name for scene in reproduce.selected(set(), True)} == every
     assert [s.name for s in reproduce.selected({"disk_cone_from_axi"}, False)] == [
         "disk_cone_from_axi"]
+    # each cube run is a shipped config with the paper's frames, the pairs share the rest
+    configs = {scene.name: sg.load_config(CONFIGS / f"{scene.config}.yaml")
+               for scene in reproduce.SCENES if scene.group == "cube"}
+    for fixed, free, _ in reproduce.CUBE_PAIRS:
+        a, b = configs[fixed], configs[free]
+        assert (a.growth.frame, b.growth.frame) == ("cartesian", "free")
+        assert a.model.dim == b.model.dim == 3 and a.mesh == b.mesh
+        assert a.objective == b.objective and a.optimizer == b.optimizer
+
+
+def _fake_run(folder: Path, config: Path, rho_h: float, verified: float) -> None:
+    """A finished run's summary.json: the config's own, the numbers given."""
+    import json
+
+    folder.mkdir(parents=True)
+    folder.joinpath("summary.json").write_text(json.dumps({
+        "dofs": {"state": 100, "design": 10}, "iterations": 300, "status": "max_iterations",
+        "rho_H_final": rho_h, "hausdorff_final": 0.1, "target_size": 12.0,
+        "evaluations": 300, "resumed": False, "wall_time_s": 60.0, "mpi_size": 2,
+        "config": sg.load_config(config).to_dict(),
+        "verified": {"hausdorff": 12 * verified, "relative": verified, "refine": 1,
+                     "dofs": 800, "wall_s": 1.0, "branch_changed": False,
+                     "status": "solved"}}))
+
+
+def test_reproduce_tables_the_cube_beside_the_square(tmp_path):
+    """RESULTS.md: the 3D cube's fixed/free ratio from each start, raw and above the cube's
+    own floor rho_H(T, T), beside the paper's and the square's; a free frame that ends worse
+    verified is said so; runs not made are named, not tabled."""
+    import re
+
+    reproduce = _reproduce_module()
+    out = tmp_path / "runs"
+    with_coarse = tmp_path / "configs"
+    with_coarse.mkdir()
+    for name in ("cube_cylinder_fixed", "cube_cylinder_free"):  # the cube's floor, cheaply
+        text = (CONFIGS / f"{name}.yaml").read_text().replace("size: 0.67", "size: 2.0")
+        with_coarse.joinpath(f"{name}.yaml").write_text(text)
+    _fake_run(out / "cube_cylinder_fixed", with_coarse / "cube_cylinder_fixed.yaml", 0.2, 0.098)
+    _fake_run(out / "cube_cylinder_free", with_coarse / "cube_cylinder_free.yaml", 0.1, 0.028)
+    rows = [(scene, reproduce.finished(out / scene.name)) for scene in reproduce.SCENES]
+    text = reproduce.results_markdown(rows, out, tmp_path / "img")
+    floor = reproduce.target_floor(reproduce.finished(out / "cube_cylinder_fixed"))
+    assert 0 < floor < 0.1
+    line = re.search(r"- from the target's metric: rho_H 0.2 fixed, 0.1 free, ratio \*\*2\*\*; "
+                     r"above the floor rho_H\(T, T\) = ([0-9.e-]+): \*\*([0-9.]+)\*\* "
+                     r"\(verified 9.80 % fixed, 2.80 % free; the free frame ends no worse, "
+                     r"verified\)", text)
+    assert line, text
+    assert float(line[2]) == pytest.approx((0.2 - floor) / (0.1 - floor), rel=1e-3)
+    assert "beside the paper's 13.8889" in text
+    assert "| 6 | cube_cylinder_free | 3D cube, free frame (three angles) | **2.80 %** |" in text
+    assert "Not in this reproduction: cube_cylinder_fixed_uniform, cube_cylinder_free_staged" \
+        in text and "from the uniform growth" not in text
+    # the free frame contains the fixed one: ending worse verified is flagged
+    (out / "cube_cylinder_free" / "summary.json").unlink()
+    (out / "cube_cylinder_free").rmdir()
+    _fake_run(out / "cube_cylinder_free", with_coarse / "cube_cylinder_free.yaml", 0.1, 0.12)
+    rows = [(scene, reproduce.finished(out / scene.name)) for scene in reproduce.SCENES]
+    assert "the free frame ends **worse**, verified" in reproduce.results_markdown(
+        rows, out, tmp_path / "img")
 
 
 def test_reproduce_says_beside_a_verified_number_which_branch_it_is_on():

@@ -11,10 +11,12 @@ from conftest import CONFIGS, read_json, run_cli
 SCENES = {  # coarse element size for CI
     "beam_wave": 0.1, "beam_ring": 0.1, "tube_helix": 2.0, "disk_cone": 0.25,
     "cylinder_flare": 0.25, "square_circle_fixed": 1.0, "square_circle_free": 1.0,
+    "cube_cylinder_fixed": 2.0, "cube_cylinder_free": 2.0,
 }
 
 
-SLOW_SCENES = {"tube_helix", "disk_cone"}  # 22 s and 17 s (their first state from rest)
+SLOW_SCENES = {"tube_helix", "disk_cone",  # 22 s and 17 s (their first state from rest)
+               "cube_cylinder_fixed", "cube_cylinder_free"}  # 21-34 s each
 
 
 @pytest.mark.parametrize("scene", [pytest.param(s, marks=[pytest.mark.slow] * (s in SLOW_SCENES))
