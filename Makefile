@@ -75,7 +75,7 @@ test-dolfinx011:
 	@scripts/dolfinx011.sh
 
 # ruff on the package, its tests, scripts, benchmarks and notebook sources, and mypy on the
-# package (both configured in pyproject.toml)
+# package, its scripts and benchmarks (both configured in pyproject.toml)
 lint:
 	$(BIN)/ruff check shapegrowth tests scripts benchmarks notebooks
 	$(BIN)/mypy

@@ -56,7 +56,7 @@ def platform() -> dict[str, str]:
 def run(out: Path, iterations: int, scenes: list[str]) -> None:
     from shapegrowth.commands.launch import launch, read_summary, with_sets
 
-    rows = {}
+    rows: dict[str, dict[str, object]] = {}
     for scene in scenes:
         with tempfile.TemporaryDirectory() as folder:
             sets = [*SCENES[scene], f"optimizer.max_iterations={iterations}",
@@ -73,12 +73,13 @@ def run(out: Path, iterations: int, scenes: list[str]) -> None:
                 continue
             with open(Path(folder) / "history.csv") as f:
                 history = list(csv.DictReader(f))
-            rows[scene] = {"objective": [float(r["objective"]) for r in history],
+            objective = [float(r["objective"]) for r in history]
+            rows[scene] = {"objective": objective,
                            "hausdorff": [float(history[0]["hausdorff"]),
                                          float(history[-1]["hausdorff"])],
                            "target_size": summary.target_size, "seconds": seconds}
-            print(f"{scene}: J {rows[scene]['objective'][0]:.12g} -> "
-                  f"{rows[scene]['objective'][-1]:.12g} in {seconds:.0f} s", flush=True)
+            print(f"{scene}: J {objective[0]:.12g} -> {objective[-1]:.12g} in "
+                  f"{seconds:.0f} s", flush=True)
     out.write_text(json.dumps({"platform": platform(), "scenes": rows}, indent=1))
 
 
