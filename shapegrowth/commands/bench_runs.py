@@ -20,7 +20,7 @@ from typing import Any
 
 from ..errors import InputError
 from ..io.along import Check, first_below, read_checks
-from ..io.summary import RunSummary
+from ..io.summary import RunSummary, percent
 from . import launch
 
 log = logging.getLogger(__name__)
@@ -131,19 +131,15 @@ def run_runs(out: Path, ranks: int, only: list[str], overrides: list[str]) -> li
     return timings
 
 
-def _pc(value: float | None) -> str:
-    return "n/a" if value is None else f"{100 * value:.3g} %"
-
-
 def _s(value: float | None) -> str:
     return "not reached" if value is None else f"{value:.0f} s"
 
 
 def describe(t: RunTiming) -> str:
     return (f"{t.name}: verified 1 % at {_s(t.to_1pc_s)}, 0.3 % at {_s(t.to_03pc_s)}; best "
-            f"verified {_pc(t.best_verified)} at {_s(t.best_at_s)}; headline "
-            f"{_pc(t.final_verified)} "
-            f"(self-reported {_pc(t.final_self)}); run {t.run_s:.0f} s, "
+            f"verified {percent(t.best_verified)} at {_s(t.best_at_s)}; headline "
+            f"{percent(t.final_verified)} "
+            f"(self-reported {percent(t.final_self)}); run {t.run_s:.0f} s, "
             f"{t.newton_per_step:.1f} Newton iterations per step")
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 from ..config import Config, from_dict
 from ..errors import InputError
 from ..io import files as io
-from ..io.summary import RunSummary
+from ..io.summary import RunSummary, percent
 from ..optim.lift import Lifted, lifted_model, verification_model
 from ..optim.refined import refined_config
 from ..physics.model import ForwardModel
@@ -82,18 +82,14 @@ def lift_run(run_dir: Path, solid_cfg: Config, out: Path) -> Lifted:
     if lifted.relative is None:
         log.warning("lift: %s", lifted.status)
     else:
-        own = (f"{100 * summary.relative_error:.3g} %" if summary.relative_error is not None
-               else "n/a")
-        reduced = (f"{100 * verified.relative:.3g} %" if verified and verified.relative
-                   is not None else "not verified")
         log.info("lifted to 3D: shape error %.3g %% (%s, %d DOFs, grown from rest, %.1f s%s; "
                  "surface to surface %s); the reduced model: verified %s, self-reported %s; "
                  "the 3D body leaves the section's shape by up to %s of the target size",
                  100 * lifted.relative, solid_cfg.name, lifted.dofs, lifted.wall_s,
                  unstable_tag(lifted.stability),
-                 "n/a" if lifted.surface is None else f"{100 * lifted.surface:.3g} %",
-                 reduced, own,
-                 "n/a" if lifted.departure is None else f"{100 * lifted.departure:.3g} %")
+                 percent(lifted.surface),
+                 percent(verified.relative if verified else None, "not verified"),
+                 percent(summary.relative_error), percent(lifted.departure))
     log.info("the 3D body's stability: %s", describe(lifted.stability))
     log.info("wrote %s", out / "lift.json")
     return lifted

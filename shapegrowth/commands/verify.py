@@ -27,6 +27,7 @@ from pathlib import Path
 from ..config import Config, load
 from ..errors import InputError
 from ..io import files as io
+from ..io.summary import percent
 from ..logs import progress_file
 from ..optim.lift import lifted_model, verification_model
 from ..optim.refined import Reverified, verify
@@ -94,10 +95,6 @@ def reverify(run_dir: Path, refine: int | None = None, out: Path | None = None,
     return check
 
 
-def _pc(value: float | None) -> str:
-    return "n/a" if value is None else f"{100 * value:.3g} %"
-
-
 def _report(check: Reverified) -> None:
     v = check.second
     where = (f"lifted to 3D ({v.lifted.config}, {v.lifted.dofs} DOFs)" if v.lifted else
@@ -109,13 +106,13 @@ def _report(check: Reverified) -> None:
     tag = unstable_tag(v.headline_stability)
     log.info("verified on the mesh refined %d time(s): shape error %s (%s, grown from rest, "
              "%.1f s%s; surface to surface %s); the run's own, refined %d time(s): %s",
-             v.refine, _pc(check.second_headline), where, v.check_wall_s, tag,
-             _pc(v.headline_surface), check.first_refine, _pc(check.first))
+             v.refine, percent(check.second_headline), where, v.check_wall_s, tag,
+             percent(v.headline_surface), check.first_refine, percent(check.first))
     if v.lifted is not None:
         log.info("the section itself on the mesh refined %d time(s): %s", v.refine,
-                 _pc(v.relative))
+                 percent(v.relative))
     if check.settled is not None:
         verdict = "settled" if check.settled else "NOT settled"
         log.info("the finer mesh moved it by %s, a third of the way to 1 %% is %s: %s",
-                 _pc(check.moved), _pc(check.allowed), verdict)
+                 percent(check.moved), percent(check.allowed), verdict)
     log.info("the finer state's stability: %s", describe(v.headline_stability))

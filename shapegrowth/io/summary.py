@@ -174,3 +174,9 @@ def _plain(value: Any) -> Any:
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return dataclasses.asdict(value)
     return value
+
+
+def percent(value: float | None, missing: str = "n/a") -> str:
+    """A relative number of a summary (a shape error over the target size) as a percentage
+    to three figures, as the commands log it; ``missing`` where there is none."""
+    return missing if value is None else f"{100 * value:.3g} %"
