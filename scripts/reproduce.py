@@ -564,7 +564,11 @@ def _cube_ratios(summaries: dict[str, RunSummary | None], square_above: float | 
             "The cube of side 4 grown into the cylinder of diameter 12, its height kept "
             "(configs/cube_cylinder_fixed.yaml, cube_cylinder_free.yaml: three eigenvalues; "
             "the free frame with three Rodrigues angles), fixed against free frame from the "
-            f"same start, beside the paper's {PAPER_RATIO}{square}:", "", *lines, ""]
+            f"same start, beside the paper's {PAPER_RATIO}{square}:", "", *lines, "",
+            "Why the cube's ratio stays far from the square's (the cube keeps its height "
+            "through lambda_3, its faces free, where plane strain holds them), and the same "
+            "starts measured at h 1: docs/TRADEOFFS.md, 'The fixed/free ratio, compared "
+            "fairly'.", ""]
 
 
 # (label, how to read it from a summary); compared to a relative tolerance
