@@ -36,6 +36,7 @@ def test_pareto_front_keeps_the_points_nothing_beats():
     assert pareto_front(cost, error).tolist() == [0, 4, 2, 3]
 
 
+@pytest.mark.slow  # 13 s serially and 12.5 s on 2 ranks: the fast tier's largest
 @pytest.mark.mpi
 def test_study_judges_each_optimum_on_the_reference_and_resumes(shared_tmp):
     args = ["study", BEAM, "--sweep", "mesh.size=0.2,0.1", "--sweep", "model.degree=1,2",
