@@ -425,19 +425,26 @@ def test_reproduce_runs_the_restarts_only_when_asked():
         assert a.objective == b.objective and a.optimizer == b.optimizer
 
 
-def _fake_run(folder: Path, config: Path, rho_h: float, verified: float) -> None:
-    """A finished run's summary.json: the config's own, the numbers given."""
+def _fake_run(folder: Path, rho_h: float, verified: float, *, config: Path | None = None,
+              state_dofs: int = 100, target_size: float = 1.0) -> None:
+    """A finished run's summary.json with the numbers given (its distances in proportion to
+    ``verified``, so two runs scaled alike compare alike), and ``config``'s own config."""
     import json
 
+    summary = {
+        "dofs": {"state": state_dofs, "design": 10}, "iterations": 300,
+        "status": "max_iterations", "rho_H_final": rho_h, "rho_H_from_rest": rho_h,
+        "hausdorff_final": 0.6 * verified * target_size,
+        "hausdorff_from_rest": 0.8 * verified * target_size, "residual_strain": 10 * verified,
+        "target_size": target_size, "evaluations": 300, "resumed": False,
+        "wall_time_s": 60.0, "mpi_size": 2,
+        "verified": {"hausdorff": target_size * verified, "relative": verified, "refine": 1,
+                     "dofs": 8 * state_dofs, "wall_s": 1.0, "branch_changed": False,
+                     "status": "solved"}}
+    if config is not None:
+        summary["config"] = sg.load_config(config).to_dict()
     folder.mkdir(parents=True)
-    folder.joinpath("summary.json").write_text(json.dumps({
-        "dofs": {"state": 100, "design": 10}, "iterations": 300, "status": "max_iterations",
-        "rho_H_final": rho_h, "hausdorff_final": 0.1, "target_size": 12.0,
-        "evaluations": 300, "resumed": False, "wall_time_s": 60.0, "mpi_size": 2,
-        "config": sg.load_config(config).to_dict(),
-        "verified": {"hausdorff": 12 * verified, "relative": verified, "refine": 1,
-                     "dofs": 800, "wall_s": 1.0, "branch_changed": False,
-                     "status": "solved"}}))
+    folder.joinpath("summary.json").write_text(json.dumps(summary))
 
 
 def test_reproduce_tables_the_cube_beside_the_square(tmp_path):
@@ -453,8 +460,10 @@ def test_reproduce_tables_the_cube_beside_the_square(tmp_path):
     for name in ("cube_cylinder_fixed", "cube_cylinder_free"):  # the cube's floor, cheaply
         text = (CONFIGS / f"{name}.yaml").read_text().replace("size: 0.67", "size: 2.0")
         with_coarse.joinpath(f"{name}.yaml").write_text(text)
-    _fake_run(out / "cube_cylinder_fixed", with_coarse / "cube_cylinder_fixed.yaml", 0.2, 0.098)
-    _fake_run(out / "cube_cylinder_free", with_coarse / "cube_cylinder_free.yaml", 0.1, 0.028)
+    for name, rho_h, verified in (("cube_cylinder_fixed", 0.2, 0.098),
+                                  ("cube_cylinder_free", 0.1, 0.028)):
+        _fake_run(out / name, rho_h, verified, config=with_coarse / f"{name}.yaml",
+                  target_size=12.0)
     rows = [(scene, reproduce.finished(out / scene.name)) for scene in reproduce.SCENES]
     text = reproduce.results_markdown(rows, out, tmp_path / "img")
     floor = reproduce.target_floor(reproduce.finished(out / "cube_cylinder_fixed"))
@@ -472,7 +481,8 @@ def test_reproduce_tables_the_cube_beside_the_square(tmp_path):
     # the free frame contains the fixed one: ending worse verified is flagged
     (out / "cube_cylinder_free" / "summary.json").unlink()
     (out / "cube_cylinder_free").rmdir()
-    _fake_run(out / "cube_cylinder_free", with_coarse / "cube_cylinder_free.yaml", 0.1, 0.12)
+    _fake_run(out / "cube_cylinder_free", 0.1, 0.12,
+              config=with_coarse / "cube_cylinder_free.yaml", target_size=12.0)
     rows = [(scene, reproduce.finished(out / scene.name)) for scene in reproduce.SCENES]
     assert "the free frame ends **worse**, verified" in reproduce.results_markdown(
         rows, out, tmp_path / "img")
@@ -497,22 +507,11 @@ def test_reproduce_says_beside_a_verified_number_which_branch_it_is_on():
 def test_reproduce_compare_flags_a_difference_beyond_the_tolerance(tmp_path):
     """--compare: two reproductions that differ by 1 % agree at rtol 5 % and not at 0.5 %; a
     different problem size never agrees; a missing run is reported, not skipped."""
-    import json
-
     reproduce = _reproduce_module()
 
     def write(out: Path, scale: float, state_dofs: int = 100) -> None:
         for scene in reproduce.SCENES:
-            (out / scene.name).mkdir(parents=True)
-            (out / scene.name / "summary.json").write_text(json.dumps({
-                "dofs": {"state": state_dofs, "design": 10}, "iterations": 300,
-                "status": "max_iterations", "rho_H_final": 2.0 * scale,
-                "hausdorff_final": 0.03 * scale, "target_size": 1.0, "evaluations": 300,
-                "rho_H_from_rest": 2.0 * scale, "resumed": False,
-                "hausdorff_from_rest": 0.04 * scale, "residual_strain": 0.5 * scale,
-                "verified": {"hausdorff": 0.05 * scale, "relative": 0.05 * scale,
-                             "refine": 1, "dofs": 8 * state_dofs, "wall_s": 1.0,
-                             "branch_changed": False, "status": "solved"}}))
+            _fake_run(out / scene.name, 2.0 * scale, 0.05 * scale, state_dofs=state_dofs)
 
     write(tmp_path / "a", 1.0)
     write(tmp_path / "b", 1.01)
