@@ -13,6 +13,16 @@ export OMPI_ALLOW_RUN_AS_ROOT := 1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 export OMPI_MCA_rmaps_base_oversubscribe := 1
 MPIRUN := mpirun -n $(NP)
+# OpenBLAS's kernels named for this CPU's vector units, where the user has not named them: a
+# CPU newer than Debian's OpenBLAS runs its SSE3 kernels, several times slower
+# (shapegrowth/blas.py). The command line sets it itself; the tests and notebooks load numpy
+# before it could, so it is set here for every recipe.
+ifeq ($(origin OPENBLAS_CORETYPE),undefined)
+OPENBLAS_CORETYPE := $(shell /usr/bin/python3 -c 'from shapegrowth.blas import openblas_coretype; print(openblas_coretype() or "")' 2>/dev/null)
+endif
+ifneq ($(OPENBLAS_CORETYPE),)
+export OPENBLAS_CORETYPE
+endif
 
 .PHONY: reachable setup run bend test test-all test-hex test-debian13 test-dolfinx011 lint test-serial test-mpi test-serial-slow test-mpi-slow notebooks bench reproduce reproduce-twice reproduce-cube reproduce-compare reference-docs clean help
 

@@ -1,7 +1,7 @@
 """The package's layers: every import points downwards, nothing imports in a circle, the flat
 API resolves, and ``import shapegrowth`` has no side effects.
 
-Layers, bottom to top: base modules (compat, heap, logs, status, timing, version) < config < physics and
+Layers, bottom to top: base modules (blas, compat, heap, logs, status, timing, version) < config < physics and
 shape (side by side, neither imports the other) < optim < io < commands < the package root.
 """
 
@@ -16,7 +16,7 @@ import pytest
 from conftest import ROOT
 
 PACKAGE = ROOT / "shapegrowth"
-LAYERS = {"compat": 0, "errors": 0, "heap": 0, "logs": 0, "status": 0, "timing": 0, "version": 0, "config": 1, "physics": 2,
+LAYERS = {"blas": 0, "compat": 0, "errors": 0, "heap": 0, "logs": 0, "status": 0, "timing": 0, "version": 0, "config": 1, "physics": 2,
           "shape": 2, "optim": 3, "io": 4, "commands": 5, "": 6, "__main__": 6}
 
 
@@ -63,7 +63,7 @@ def _layer(module: str) -> int:
 
 
 MODULES = _modules()
-LAYERS_BASE = {"compat", "errors", "logs", "status", "timing", "version", "__main__"}
+LAYERS_BASE = {"blas", "compat", "errors", "logs", "status", "timing", "version", "__main__"}
 GRAPH = {name: _imports(name, path) for name, path in MODULES.items()}
 
 

@@ -3,9 +3,13 @@ those of its cases, and the MPI run of the largest case computes the serial numb
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 from conftest import CONFIGS, read_json, run_subprocess
+
+from shapegrowth import blas
 
 
 @pytest.mark.slow
@@ -31,6 +35,10 @@ def test_bench_writes_consistent_cases_ratios_and_mpi_run(tmp_path):
     slope = np.polyfit(np.log([c["dofs"] for c in cases]),
                        np.log([c["iteration_s"] for c in cases]), 1)[0]
     assert bench["scaling_exponent"] == pytest.approx(slope, rel=1e-12)
+    # the kernels OpenBLAS ran: those named for this CPU, or the user's (shapegrowth/blas.py)
+    asked = os.environ.get("OPENBLAS_CORETYPE") or blas.openblas_coretype()
+    kernels = {c["blas_kernels"] for c in cases}
+    assert kernels == {None} or asked is None or kernels == {asked}
     mpi = bench["mpi"]
     assert mpi["ranks"] == 2 and mpi["dofs"] == cases[1]["dofs"]
     assert mpi["speedup"] == pytest.approx(cases[1]["iteration_s"] / mpi["iteration_s"])

@@ -26,7 +26,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from .. import compat
+from .. import blas, compat
 from ..config import Config
 from ..errors import InputError, StateSolveError
 from ..io import files as io
@@ -135,6 +135,7 @@ def measure_case(cfg: Config, steps: int = 3, step_size: float = 0.01) -> dict[s
         "design_dofs": comm.allreduce(rf.size, MPI.SUM),
         "points": comm.allreduce(len(rf.objective.cloud), MPI.SUM),
         "ranks": comm.size,
+        "blas_kernels": blas.loaded_openblas_kernels(),  # OpenBLAS's, None for another BLAS
         "objective": ev.value.total,  # at the last step: the same on any number of ranks
         "adjoint_refinements": rf.adjoint.refinements,
         "cold_forward_s": cold_forward,

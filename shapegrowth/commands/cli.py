@@ -9,26 +9,14 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 import re
 import sys
 from pathlib import Path
 
 from mpi4py import MPI
 
+from .. import blas
 from ..version import __version__
-
-
-def _one_blas_thread_per_rank() -> None:
-    """Under mpirun the ranks already use the cores: OpenBLAS threads would oversubscribe.
-    Measured on the 27.9k-DOF P2 bend: 1 rank x 2 threads 27 s, 2 ranks x 1 thread 21 s.
-    Must run before numpy/PETSc load the BLAS: the console entry point calls it first
-    (``import shapegrowth`` loads neither)."""
-    ranks = os.environ.get("OMPI_COMM_WORLD_SIZE") or os.environ.get("PMI_SIZE") or "1"
-    if int(ranks) > 1:
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-        os.environ.setdefault("OMP_NUM_THREADS", "1")  # the pip wheel's MUMPS uses OpenMP
-
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 log = logging.getLogger("shapegrowth")
@@ -345,7 +333,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def entry() -> None:
-    _one_blas_thread_per_rank()
+    blas.prepare_environment()  # before numpy and PETSc load the BLAS
     sys.exit(main())
 
 

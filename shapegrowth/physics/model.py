@@ -3,6 +3,8 @@ the quantities a solved body reports (volumes, stress, residual strain)."""
 
 from __future__ import annotations
 
+import functools
+import logging
 from dataclasses import dataclass
 
 import dolfinx.fem
@@ -10,11 +12,13 @@ import numpy as np
 import ufl
 from mpi4py import MPI
 
-from .. import compat
+from .. import blas, compat
 from ..config import Config, resolved
 from .geometry import Domain, load_domain
 from .growth import Growth
 from .state import StateProblem
+
+log = logging.getLogger("shapegrowth")
 
 
 @dataclass
@@ -26,6 +30,10 @@ class ForwardModel:
 
     @classmethod
     def build(cls, cfg: Config, comm: MPI.Comm = MPI.COMM_WORLD) -> ForwardModel:
+        """Mesh, growth fields and state for ``cfg``; warns once per process where the BLAS
+        runs a fallback kernel set (a notebook started without the environment the command
+        line sets: :mod:`shapegrowth.blas`)."""
+        _warn_of_slow_blas()
         domain = load_domain(cfg, comm)
         growth = Growth.from_config(domain.mesh, cfg)
         state = StateProblem(domain, cfg, growth)
@@ -96,3 +104,10 @@ class ForwardModel:
 def build_model(cfg: Config, comm: MPI.Comm = MPI.COMM_WORLD) -> ForwardModel:
     """Mesh, growth fields (at the config's initial growth) and state for ``cfg``."""
     return ForwardModel.build(cfg, comm)
+
+
+@functools.cache
+def _warn_of_slow_blas() -> None:
+    message = blas.kernel_warning()
+    if message is not None:
+        log.warning("%s", message)
