@@ -35,7 +35,7 @@ MIRROR=${SHAPEGROWTH_DEBIAN13_MIRROR:-$(host_mirror)}
 # The packages of scripts/setup.sh, plus make for the Makefile and Debian's numba (built
 # against Debian's numpy, so pip finds numba there and fetches none)
 PACKAGES="python3-dolfinx-real python3-gmsh python3-nlopt python3-h5py python3-venv
-  python3-yaml python3-matplotlib python3-scipy python3-pytest python3-nbclient
+  python3-yaml python3-matplotlib python3-scipy python3-pytest python3-pytest-xdist python3-nbclient
   python3-nbformat python3-ipykernel python3-numba libopenblas0-pthread openmpi-bin
   python3-setuptools make ca-certificates"
 # one line: the list goes into a `bash -c` string below, where a newline would end apt-get's

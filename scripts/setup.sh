@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 # 31 s with OpenBLAS (serial or one thread), 27 s with the pthread build on 2 threads.
 APT_PACKAGES=(
   python3-dolfinx-real python3-gmsh python3-nlopt python3-h5py python3-venv
-  python3-yaml python3-matplotlib python3-scipy python3-pytest python3-setuptools
+  python3-yaml python3-matplotlib python3-scipy python3-pytest python3-pytest-xdist python3-setuptools
   python3-nbclient python3-nbformat python3-ipykernel
   libopenblas0-pthread openmpi-bin
 )

@@ -69,3 +69,39 @@ def test_the_loaded_kernels_are_the_ones_asked_for_and_a_fallback_is_named():
         assert f"set OPENBLAS_CORETYPE={better} before Python starts" in warning
         assert _kernels_in_a_fresh_process(better) == (better, "None")
 
+
+def test_the_launchers_child_is_not_part_of_its_parents_mpi_job(monkeypatch):
+    """An MPI singleton's (or rank's) variables are left out, the user's OpenMPI settings
+    kept, OpenMPI's root and oversubscription settings added."""
+    from shapegrowth.commands import launch
+
+    for key, value in {"OMPI_MCA_ess": "singleton", "PMIX_RANK": "0", "PMI_SIZE": "2",
+                       "OMPI_COMM_WORLD_SIZE": "2", "OMPI_MCA_orte_launch": "1",
+                       "OMPI_APP_CTX_NUM_PROCS": "1", "OMPI_MCA_btl": "self,vader"}.items():
+        monkeypatch.setenv(key, value)
+    env = launch.environment()
+    assert not [key for key in env if key.startswith(("PMIX_", "PMI_", "OMPI_MCA_ess",
+                                                       "OMPI_COMM_WORLD", "OMPI_MCA_orte",
+                                                       "OMPI_APP_CTX"))]
+    assert env["OMPI_MCA_btl"] == "self,vader"
+    assert launch.MPI_ENVIRONMENT.items() <= env.items()
+
+
+def test_a_process_started_by_an_mpi_singleton_launches_mpirun():
+    """A process that imported mpi4py starts one that runs mpirun: the grandchild inherits
+    the singleton's variables (as a pytest-xdist worker does its controller's), and mpirun
+    there exited 1 without a word until the launcher left them out."""
+    import shutil
+
+    if shutil.which("mpirun") is None:
+        pytest.skip("no mpirun")
+    child = ("import subprocess, sys; from mpi4py import MPI; "
+             "sys.exit(subprocess.run([sys.executable, '-c', "
+             "'from shapegrowth.commands.launch import launch; import sys; "
+             "r = launch([], 2, program=[sys.executable, \"-c\", \"print(7)\"], "
+             "capture_output=True, text=True); print(r.returncode, r.stdout.split())']"
+             ").returncode)")
+    done = subprocess.run([sys.executable, "-c", child], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "0 ['7', '7']"

@@ -34,10 +34,23 @@ def mpirun(ranks: int) -> list[str]:
     return [launcher, "-n", str(ranks)]
 
 
+# What an MPI job leaves in its processes' environment (a rank's, or a singleton's: a
+# process that imported mpi4py, and the processes it starts): a child that inherits it takes
+# itself for a part of that job, and OpenMPI's mpirun exits 1 without a word (measured from a
+# pytest-xdist worker, whose controller had imported mpi4py).  The user's own OMPI_MCA_
+# settings stay.
+_JOB_VARIABLES = ("PMIX_", "PMI_", "OMPI_COMM_WORLD_", "OMPI_APP_CTX", "OMPI_NUM_APP_CTX",
+                  "OMPI_FIRST_RANKS", "OMPI_UNIVERSE_SIZE", "OMPI_FILE_LOCATION",
+                  "OMPI_MCA_ess", "OMPI_MCA_orte_", "OMPI_MCA_pmix", "OMPI_MCA_initial_wdir")
+
+
 def environment(one_thread: bool = False, extra: dict[str, str] | None = None) -> dict[str, str]:
-    """This process's environment with OpenMPI's settings; ``one_thread``: one BLAS and one
-    numba thread (what each rank of a run on several gets)."""
-    env = dict(os.environ, **MPI_ENVIRONMENT)
+    """This process's environment with OpenMPI's settings, less an MPI job's own variables
+    (the child is a job of its own); ``one_thread``: one BLAS and one numba thread (what each
+    rank of a run on several gets)."""
+    env = {key: value for key, value in os.environ.items()
+           if not key.startswith(_JOB_VARIABLES)}
+    env.update(MPI_ENVIRONMENT)
     if one_thread:
         env.update(OPENBLAS_NUM_THREADS="1", NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
     env.update(extra or {})
@@ -56,8 +69,12 @@ def launch(args: Sequence[Any], ranks: int = 1, *, program: Sequence[Any] | None
            one_thread: bool | None = None, env: dict[str, str] | None = None,
            **run: Any) -> subprocess.CompletedProcess:
     """Run :func:`command` and wait for it (``run``: subprocess.run's keywords: cwd,
-    capture_output, text, stdout, timeout, ...).  ``one_thread`` defaults to ranks > 1."""
+    capture_output, text, stdout, timeout, ...).  ``one_thread`` defaults to ranks > 1.
+    Its standard input is empty unless ``run`` gives one: mpirun forwards its input to rank
+    0, and a caller whose input is a channel of its own (a pytest-xdist worker's) lost it to
+    mpirun, which then exited 1 without a word."""
     single = ranks > 1 if one_thread is None else one_thread
+    run.setdefault("stdin", subprocess.DEVNULL)
     return subprocess.run(command(args, ranks, program), env=environment(single, env), **run)
 
 
