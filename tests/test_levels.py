@@ -70,6 +70,7 @@ def test_the_design_carries_over_exactly(degree):
         assert integrals[1] == pytest.approx(integrals[0], rel=1e-12)
 
 
+@pytest.mark.slow  # 12 s serially, 8 s on 2 ranks
 @pytest.mark.mpi
 def test_the_next_level_starts_from_the_last_levels_equilibrium():
     """A level's first state: Newton at the full growth from the coarser level's

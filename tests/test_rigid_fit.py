@@ -53,6 +53,7 @@ def test_the_placement_of_the_reference_is_the_reference():
     assert np.abs(RigidFit(X, m, MPI.COMM_SELF)(X) - X).max() < 1e-12
 
 
+@pytest.mark.slow  # 11 s serially, 10 s on 2 ranks
 @pytest.mark.mpi
 def test_a_free_beam_finds_its_compatible_bend_whichever_vertices_are_pinned():
     """The tiny arc's target (the image of lambda_1 = (1 + kappa X3)^2) against the free beam

@@ -233,6 +233,7 @@ def test_where_a_path_loses_stability(ts, values, converged, expected):
     assert lost_at == (None if expected[0] is None else pytest.approx(expected[0]))
 
 
+@pytest.mark.slow  # 11 s serially, 9 s on 2 ranks
 @pytest.mark.mpi
 def test_a_run_reports_the_stability_of_its_optimum_and_of_its_verified_state(shared_tmp):
     """The cantilever optimised towards the wave: both its optimum and the verified state
