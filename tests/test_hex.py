@@ -182,8 +182,8 @@ def _helix_error(h: float, growth_degree: int, cache_dir) -> float:
                      / model.integrate(ufl.dot(exact, exact)))
 
 
-# both slow (19 s at degree 2 on this machine): the fast tier keeps the helix on simplices
-# (tests/test_state.py), the slow tier runs it here on hexahedra
+# both slow (19 s at degree 2 on this machine); the slow tier runs them, and tests/test_state.py's
+# on simplices
 @pytest.mark.slow
 @pytest.mark.parametrize("growth_degree, min_rate", [(2, 2.5), (1, 1.8)])
 def test_helix_grown_by_its_own_metric_converges_on_hexahedra(growth_degree, min_rate,
