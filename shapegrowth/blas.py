@@ -87,9 +87,8 @@ def loaded_openblas_kernels() -> str | None:
         maps = Path("/proc/self/maps").read_text()
     except OSError:
         return None
-    paths = {line.split()[-1] for line in maps.splitlines()
-             if "openblas" in line.rsplit("/", 1)[-1] and line.split()[-1].startswith("/")}
-    for path in sorted(paths):
+    mapped = {line.split()[-1] for line in maps.splitlines() if line.strip()}
+    for path in sorted(p for p in mapped if p.startswith("/") and "openblas" in Path(p).name):
         try:
             lib = ctypes.CDLL(path)
             corename = lib.openblas_get_corename

@@ -87,7 +87,7 @@ def test_the_launchers_child_is_not_part_of_its_parents_mpi_job(monkeypatch):
     assert launch.MPI_ENVIRONMENT.items() <= env.items()
 
 
-def test_a_process_started_by_an_mpi_singleton_launches_mpirun():
+def test_a_process_started_by_an_mpi_singleton_launches_mpirun(tmp_path):
     """A process that imported mpi4py starts one that runs mpirun: the grandchild inherits
     the singleton's variables (as a pytest-xdist worker does its controller's), and mpirun
     there exited 1 without a word until the launcher left them out."""
@@ -95,13 +95,19 @@ def test_a_process_started_by_an_mpi_singleton_launches_mpirun():
 
     if shutil.which("mpirun") is None:
         pytest.skip("no mpirun")
-    child = ("import subprocess, sys; from mpi4py import MPI; "
-             "sys.exit(subprocess.run([sys.executable, '-c', "
-             "'from shapegrowth.commands.launch import launch; import sys; "
-             "r = launch([], 2, program=[sys.executable, \"-c\", \"print(7)\"], "
-             "capture_output=True, text=True); print(r.returncode, r.stdout.split())']"
-             ").returncode)")
-    done = subprocess.run([sys.executable, "-c", child], capture_output=True, text=True,
+    grandchild = tmp_path / "grandchild.py"
+    grandchild.write_text(
+        "import sys\n"
+        "from shapegrowth.commands.launch import launch\n"
+        "done = launch([], 2, program=[sys.executable, '-c', 'print(7)'],\n"
+        "              capture_output=True, text=True)\n"
+        "print(done.returncode, done.stdout.split())\n")
+    child = tmp_path / "child.py"
+    child.write_text(
+        "import subprocess, sys\n"
+        "from mpi4py import MPI  # this process is now an MPI singleton\n"
+        f"sys.exit(subprocess.run([sys.executable, {str(grandchild)!r}]).returncode)\n")
+    done = subprocess.run([sys.executable, str(child)], capture_output=True, text=True,
                           timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "0 ['7', '7']"

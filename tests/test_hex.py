@@ -182,8 +182,8 @@ def _helix_error(h: float, growth_degree: int, cache_dir) -> float:
                      / model.integrate(ufl.dot(exact, exact)))
 
 
-# both slow (19 s at degree 2 on this machine); the slow tier runs them, and tests/test_state.py's
-# on simplices
+# slow (19 s at degree 2 on a 2-core machine): make test-all runs both degrees, as it runs
+# tests/test_state.py's helix on simplices
 @pytest.mark.slow
 @pytest.mark.parametrize("growth_degree, min_rate", [(2, 2.5), (1, 1.8)])
 def test_helix_grown_by_its_own_metric_converges_on_hexahedra(growth_degree, min_rate,
