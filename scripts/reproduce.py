@@ -197,7 +197,11 @@ WHY: dict[int, str] = {
        "self-reported number is a third of its verified one: its own mesh does not yet "
        "follow its optimum. The next mesh verifies at ~1.85M DOFs, beyond the largest solve "
        "from rest made on this machine (TRADEOFFS, 'What 1 % would take', 'The "
-       "verification, verified').",
+       "verification, verified'). A finer ring does not close the gap: at h 0.35 (62 280 "
+       "DOFs, the wall still one element) the run verifies at 2.61 % against 0.75 % "
+       "self-reported, in 55 min. The paper's fixed frame cannot hold the helix's shear "
+       "(C_13 = L_f / L), so the optimiser must find the whole rise in residual stress "
+       "(TRADEOFFS, 'Scene 3 on a finer ring').",
     4: "The section reaches its target, but the 3D disk grown from rest buckles out of axial "
        "symmetry (the departure in the table): an equilibrium the section cannot reach, and "
        "no filter helps (each sends the growth from rest onto another equilibrium); the 3D "
