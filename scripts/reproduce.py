@@ -206,7 +206,10 @@ WHY: dict[int, str] = {
        "symmetry (the departure in the table): an equilibrium the section cannot reach, and "
        "no filter helps (each sends the growth from rest onto another equilibrium); the 3D "
        "run's verified number is several times its self-reported one (TRADEOFFS, 'Reduced "
-       "models', 'A second finding', 'Filter lengths and design sets, judged verified').",
+       "models', 'A second finding', 'Filter lengths and design sets, judged verified')."
+       " A second element through the wall makes it worse: ~5.3 % self-reported after the "
+       "same iterations, the path broken by branch jumps, and no equilibrium from rest on "
+       "its mesh refined once (TRADEOFFS, 'Scene 4's disk two elements thick').",
     5: "The section filtered over four wall thicknesses is the one whose growth the 3D shell "
        "follows (the departure in the table; unfiltered, the 3D shell meets a limit point "
        "before its growth is reached). Over one size (the shell's diameter, as the section's "
