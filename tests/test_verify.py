@@ -290,3 +290,9 @@ def test_verify_refuses_a_folder_without_a_run_or_without_a_verification(tmp_pat
     assert run_cli("verify", tmp_path) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "verify.enabled false" in err
+    # a run stopped before its summary (e.g. in its own verification) is resumed, not verified
+    (tmp_path / "summary.json").unlink()
+    assert run_cli("verify", tmp_path) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "did not finish" in err
+    assert f"shapegrowth run CONFIG --out {tmp_path} --resume" in err

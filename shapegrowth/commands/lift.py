@@ -33,6 +33,12 @@ def reduced_run(run_dir: Path, solve: bool = True, command: str = "lift",
     """The run's config (``overrides`` applied), summary and model (a 2D one for the lift)
     at its best growth, in equilibrium from rest where that solve converges (``solve``;
     else at rest) (collective); ``command`` names the caller in errors."""
+    if not (run_dir / "summary.json").is_file() and (run_dir / "checkpoint.h5").is_file():
+        # stopped before its summary (in the optimisation or in its own verification): the
+        # resume replays every recorded iteration without a solve and goes on from there
+        raise InputError(f"{command}: {run_dir} has no summary.json: the run did not finish; "
+                         f"finish it with `shapegrowth run CONFIG --out {run_dir} --resume` "
+                         "(with the run's --set), then try again")
     for name in ("summary.json", "growth.npz"):
         if not (run_dir / name).is_file():
             kind = " of a 2D section model" if command == "lift" else ""

@@ -16,6 +16,10 @@ the run's number and the check) to ``--out`` (default RUN_DIR/verify-rN), and be
 as the check goes, progress.log (each load step, stamped with the time, even with ``-q``).
 ``--set`` applies to the run's config (and to the 3D config of a lift), e.g.
 ``solver.linear=mumps_ooc`` for a mesh whose factor does not fit in memory.
+
+A run stopped before its summary.json (in its optimisation, or in its own verification)
+is not verified here but finished: ``shapegrowth run CONFIG --out RUN_DIR --resume`` replays
+its recorded iterations without a solve and goes on from where it stopped.
 """
 
 from __future__ import annotations
