@@ -204,7 +204,7 @@ WHY: dict[int, str] = {
        "(TRADEOFFS, 'Scene 3 on a finer ring'). "
        "Two elements through the wall do better: at h 0.5 with `mesh.layers: 2` (8 784 "
        "design DOFs) 100 iterations verify at 2.23 % against 0.96 % self-reported (416 "
-       "448 DOFs, stable; 48 min, 45 of them the verification), still improving when the "
+       "448 DOFs, stable; 62 min, 45 of them the verification), still improving when the "
        "budget ended (TRADEOFFS, 'Scene 3 on a finer ring').",
     4: "The section reaches its target, but the 3D disk grown from rest buckles out of axial "
        "symmetry (the departure in the table): an equilibrium the section cannot reach, and "
