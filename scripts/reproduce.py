@@ -363,6 +363,8 @@ def _how(s: RunSummary) -> str:
         return "not verified"
     refined = (f"refined x{v.refine}, from rest, {v.dofs} DOFs" if v.relative is not None
                else f"refined x{v.refine}: {v.status}")
+    if v.iteration is not None:  # verify.best: verified
+        refined += f", iteration {v.iteration}'s growth (the lowest of verify.every's checks)"
     if v.lifted is None:
         return (refined + (" (another equilibrium than the run's)" if v.branch_changed else "")
                 + _unstable(v.stability))

@@ -237,3 +237,17 @@ def test_a_fitted_placement_is_for_a_free_body():
         "objective.placement: fitted moves a free body (boundary.clamp: rigid) onto its best "
         "fit; a clamped body stands where its clamp holds it: use placement: pinned or "
         "clamp: rigid"]
+
+
+def test_verify_best_verified_needs_the_checks_it_chooses_among(tmp_path):
+    """verify.best: verified without verify.every (or with the verification off) is one
+    line naming the key and the fix; with every, the config loads."""
+    for sets in (["verify.best=verified"],
+                 ["verify.best=verified", "verify.every=5", "verify.enabled=false"]):
+        lines = problems(tmp_path, BASE, sets)
+        assert lines == ["verify.best: 'verified' chooses among verify.every's checks; set "
+                         "verify.every (e.g. 20) with verify.enabled: true, or verify.best: "
+                         "self"], lines
+    cfg = load(write(tmp_path, BASE), ["verify.best=verified", "verify.every=5"])
+    assert cfg.verify.best == "verified" and cfg.verify.every == 5
+    assert "allowed" in problems(tmp_path, BASE, ["verify.best=lowest"])[0]

@@ -77,6 +77,9 @@ def test_a_verified_number_on_an_unstable_state_says_so_beside_it():
     alone = _verified_text(Verified(0.0038, 0.00476, 1, 42306, 13.7, False, "solved", None,
                                     unstable))
     assert "0.476 %" in alone and "UNSTABLE since 0.35" in alone
+    chosen = _verified_text(Verified(0.0038, 0.00476, 1, 42306, 13.7, False, "solved",
+                                     iteration=120))
+    assert "iteration 120's growth, the lowest verified along the run" in chosen
 
 
 
@@ -106,7 +109,8 @@ def test_every_run_reports_its_verified_error(shared_tmp):
     s = read_json(shared_tmp / "summary.json")
     v = s["verified"]
     assert set(v) == {"hausdorff", "relative", "refine", "dofs", "wall_s", "branch_changed",
-                      "status", "stability", "surface"}
+                      "status", "stability", "surface", "iteration"}
+    assert v["iteration"] is None  # verify.best: self, the optimiser's best
     assert v["stability"]["stable"] and v["stability"]["negative"] == 0
     # the boundaries surface to surface beside the volume clouds' points: the same shape
     # error to within the clouds' sampling (a tenth of the cells here)
@@ -217,6 +221,96 @@ def test_verify_every_writes_the_verified_error_along_the_run(shared_tmp):
     # resumed after the end: every iteration is replayed, nothing is checked again
     assert run_cli("run", ARC, "--out", out, "-q", "--resume", *sets) == 0
     assert len(read_checks(out / "verified.csv")) == 2
+
+
+def _scripted_verify(monkeypatch, relatives):
+    """``verify`` replaced (in the checks and in the run) by one that returns the given
+    relative errors in turn and records the growth's integral it was asked about."""
+    import shapegrowth.commands.run as run
+    import shapegrowth.io.along as along
+
+    asked = []
+
+    def scripted(model, refine, changed=False):
+        asked.append(model.integrate(model.growth.eigenvalues[0]))
+        relative = relatives[len(asked) - 1]
+        return Verified(relative, relative, refine, 1, 0.0, changed, "solved")
+
+    monkeypatch.setattr(run, "verify", scripted)
+    monkeypatch.setattr(along, "verify", scripted)
+    return asked
+
+
+@pytest.mark.mpi
+def test_verify_best_ends_the_run_on_the_lowest_verified_growth(shared_tmp, monkeypatch):
+    """verify.best: verified, checks at iterations 1 and 3 (verified 20 % and 50 %,
+    scripted): the optimiser's best (iteration 3, by its own number) is no lower, so the
+    run ends on iteration 1's growth: its state (the self-reported numbers of that row of
+    history.csv), its growth written, its check the headline, named by iteration."""
+    script = [0.2, 0.5, 0.5]
+    asked = _scripted_verify(monkeypatch, script)
+    out = shared_tmp / "best"
+    cfg = sg.load_config(ARC, ["optimizer.max_iterations=4", "verify.every=2",
+                               "verify.best=verified"])
+    result = sg.optimize(cfg, out)
+    history = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    assert int(np.argmin(history["objective"])) == 3  # the optimiser's best: the last
+    assert len(asked) == 3  # two checks, and the optimiser's best (not a check's design)
+    assert asked[2] == pytest.approx(asked[1], rel=1e-12)  # iteration 3's growth
+    v, s = result.summary.verified, result.summary
+    assert v is not None and v.relative == 0.2 and v.iteration == 1
+    assert s.objective_final == pytest.approx(history["objective"][1], rel=1e-6)
+    assert s.hausdorff_final == pytest.approx(history["hausdorff"][1], rel=1e-6)
+    assert s.hausdorff_final != pytest.approx(history["hausdorff"][3], rel=1e-3)
+    growth = result.model.growth.eigenvalues[0]
+    assert result.model.integrate(growth) == pytest.approx(asked[0], rel=1e-12)
+    assert read_json(out / "summary.json")["verified"]["iteration"] == 1
+    # resumed after the end: the checks' numbers read back from verified.csv, their designs
+    # from the replay; the optimiser's best verified, and the winner verified again
+    asked.clear()
+    script[:] = [0.5, 0.2]
+    resumed = sg.optimize(cfg, out, resume=True).summary
+    assert len(asked) == 2 and len((out / "verified.csv").read_text().splitlines()) == 3
+    assert asked[1] == pytest.approx(result.model.integrate(growth), rel=1e-12)
+    assert resumed.verified is not None and resumed.verified.iteration == 1
+    assert resumed.hausdorff_final == pytest.approx(s.hausdorff_final, rel=1e-6)
+
+
+def test_verify_best_keeps_the_optimisers_best_where_it_verifies_lower(tmp_path, monkeypatch):
+    """The same run with the optimiser's best verifying lowest: the run is verify.best:
+    self's, and a check whose design is the optimiser's best is not verified twice."""
+    asked = _scripted_verify(monkeypatch, [0.5, 0.2])
+    cfg = sg.load_config(ARC, ["optimizer.max_iterations=4", "verify.every=2",
+                               "verify.best=verified"])
+    result = sg.optimize(cfg, tmp_path)
+    history = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    v = result.summary.verified
+    assert len(asked) == 2 and v is not None and v.relative == 0.2 and v.iteration is None
+    assert result.summary.hausdorff_final == pytest.approx(history["hausdorff"][3], rel=1e-6)
+
+
+@pytest.mark.slow
+def test_verify_best_hands_a_levels_winner_to_the_next_level(tmp_path, monkeypatch):
+    """Coarse to fine (levels [0, 1], 4 iterations each): the first level's lowest check
+    (iteration 1, not its optimiser's best) is the design the second level starts from;
+    the second level's own checks and best decide the run."""
+    asked = _scripted_verify(monkeypatch, [0.2, 0.5, 0.5, 0.4, 0.3, 0.3])
+    cfg = sg.load_config(ARC, ["optimizer.max_iterations=8", "optimizer.levels=[0, 1]",
+                               "verify.every=2", "verify.best=verified"])
+    result = sg.optimize(cfg, tmp_path)
+    history = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    first = history[history["level"] == 0]
+    assert int(np.argmin(first["objective"])) == 3
+    # the second level's first evaluation is iteration 1's design on the finer mesh (17 %
+    # above its number on the coarse one here), not iteration 3's (a quarter of that)
+    assert history["hausdorff"][4] == pytest.approx(first["hausdorff"][1], rel=0.25)
+    assert history["hausdorff"][4] > 3 * first["hausdorff"][3]
+    second = history[history["level"] == 1]
+    # 2 checks + the optimiser's best on the first level, 2 checks on the second, and its
+    # optimiser's best where that is not its lowest check's design (iteration 7's)
+    assert len(asked) == (5 if int(np.argmin(second["objective"])) == 3 else 6)
+    v = result.summary.verified
+    assert v is not None and v.relative == 0.3
 
 
 @pytest.mark.parametrize("degree, measured", [(1, 2), (2, 2), (3, 3)])

@@ -24,14 +24,14 @@ from mpi4py import MPI
 from ..config import load
 from ..errors import StateSolveError
 from ..io import files as io
-from ..io.along import VerifyEvery
+from ..io.along import Candidate, VerifyEvery
 from ..io.checkpoint import CheckpointFile
 from ..io.figures3d import write_shape3d_png
 from ..io.plotting import write_frame_png, write_shape_png
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
 from ..optim.callbacks import FromRestEvery, ProgressLog, ProgressTolerance, RetryFromRest
 from ..optim.driver import Driver, DriverSettings, window_progress
-from ..optim.interface import Callback, Record
+from ..optim.interface import Callback, GlobalVector, Record
 from ..optim.levels import level_config
 from ..optim.lift import lift, verification_model
 from ..optim.objective import ObjectiveValue
@@ -72,6 +72,7 @@ class Optimised:
     design_size: int
     history: list[Record]
     status: Outcome
+    candidate: Candidate | None = None  # verify.best: verified: the level's lowest check
 
 
 @dataclass
@@ -100,6 +101,9 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
     with linear.counting() as tally:  # the linear solvers' fallbacks, all models
         done = optimise_levels(cfg, out, resume, timer)
         settled = settle(done)
+        refined = None  # the settled growth's verification, where choosing it made one
+        if cfg.verify.best == "verified":
+            done, settled, refined = choose_verified(cfg, done, settled)
         stability = None  # of the state the outputs show (none without a state)
         if settled.final is not None:
             with timer("forward"):
@@ -107,7 +111,7 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
                 stability = assess_or_none(problem)
         with timer("io"):
             write_outputs(out, done, extra=[problem.mode] if stability else [])
-        verified = verify_best(cfg, done.model, settled)
+        verified = verify_best(cfg, done.model, settled, refined)
     summary = dataclasses.replace(summarise(cfg, done, settled, verified, timer, resume),
                                   linear_solver=linear_use(done.model.state.linear, tally),
                                   stability=stability)
@@ -152,9 +156,12 @@ def optimise_levels(cfg, out: Path, resume: bool, timer: Timer) -> Optimised:
         history += [dataclasses.replace(r, iteration=len(history) + i, level=k)
                     for i, r in enumerate(result.history)]
         previous = Optimised(model, rf, driver.local(result.best), driver.design_size, history,
-                             result.outcome)
+                             result.outcome, along.best if along is not None else None)
         if result.outcome.is_failure:
             break
+        if cfg.verify.best == "verified" and k + 1 < len(levels):
+            # the next level starts from this level's lowest verified growth
+            previous = choose_verified(cfg, previous, settle(previous))[0]
     assert previous is not None  # at least one level
     return previous
 
@@ -183,8 +190,10 @@ def _level_callbacks(cfg, out: Path, resume: bool, timer: Timer, k: int,
                                            cfg.optimizer.ftol_rel))
     along = None
     if cfg.verify.every:
+        local = GlobalVector(rf.comm, rf.size).local if cfg.verify.best == "verified" \
+            else None
         along = VerifyEvery(model, cfg.verify.refine, cfg.verify.every, rf.target_size,
-                            out / "verified.csv", timer, k, done, checked)
+                            out / "verified.csv", timer, k, done, checked, local)
         callbacks.append(along)
     return callbacks, along
 
@@ -236,18 +245,53 @@ def write_outputs(out: Path, done: Optimised, extra: list | None = None) -> None
         write_frame_png(out / "frame.png", u, applied.eigenvalues, applied.angles[0], target)
 
 
-def verify_best(cfg, model: ForwardModel, settled: Settled) -> Verified | None:
-    """The best growth on the mesh refined ``verify.refine`` times, grown from rest there,
-    and for a section lifted onto its 3D body (``verify.lift``); None with verify off."""
+def choose_verified(cfg, done: Optimised, settled: Settled
+                    ) -> tuple[Optimised, Settled, Verified | None]:
+    """``verify.best: verified``: the optimiser's best design verified (not again where it
+    is the lowest check's design) against the lowest of the level's checks; the run goes on
+    with the lower, settled there, and its verification (None without checks)."""
+    best = done.candidate
+    if best is None:
+        return done, settled, None
+    comm = done.model.comm
+    same = comm.allreduce(bool(np.array_equal(best.design, done.best)), op=MPI.LAND)
+    if same and best.verified is not None:
+        return done, settled, dataclasses.replace(best.verified,
+                                                  branch_changed=settled.branch_changed)
+    changed, refine = settled.branch_changed, cfg.verify.refine
+    own = (verify(done.model, refine, changed) if settled.final is not None else
+           Verified(None, None, refine, 0, 0.0, changed, "failed: no state at the best design"))
+    own_relative = float("inf") if own.relative is None else own.relative
+    if same or own_relative <= best.relative:
+        return done, settled, own
+    log.info("verify.best: iteration %d's growth verifies at %.3g %%, the optimiser's best "
+             "at %s: the run goes on with iteration %d's", best.check.iteration,
+             100 * best.relative, f"{100 * own_relative:.3g} %" if own.relative is not None
+             else own.status, best.check.iteration)
+    done = dataclasses.replace(done, best=best.design)
+    settled = settle(done)
+    verified = best.verified if best.verified is not None else verify(done.model, refine)
+    return done, settled, dataclasses.replace(verified, branch_changed=settled.branch_changed,
+                                              iteration=best.check.iteration)
+
+
+def verify_best(cfg, model: ForwardModel, settled: Settled,
+                refined: Verified | None = None) -> Verified | None:
+    """The best growth on the mesh refined ``verify.refine`` times, grown from rest there
+    (``refined`` where it was already), and for a section lifted onto its 3D body
+    (``verify.lift``); None with verify off."""
     if not cfg.verify.enabled:
         return None
     changed = settled.branch_changed
     if settled.final is None:
         return Verified(None, None, cfg.verify.refine, 0, 0.0, changed,
                         "failed: no state at the best design")
-    log.info("verifying: the best growth on the mesh refined %d time(s), grown from rest",
-             cfg.verify.refine)
-    verified = verify(model, cfg.verify.refine, changed)
+    if refined is not None:
+        verified = refined
+    else:
+        log.info("verifying: the best growth on the mesh refined %d time(s), grown from rest",
+                 cfg.verify.refine)
+        verified = verify(model, cfg.verify.refine, changed)
     if cfg.verify.lift is not None:
         solid = verification_model(load(cfg.verify.lift), cfg.verify.lift_refine,
                                    cfg.verify.lift_degree)
@@ -337,9 +381,12 @@ def _verified_text(verified: Verified | None) -> str:
     if verified is None:
         return "not verified (verify.enabled: false)"
     times = "once" if verified.refine == 1 else f"{verified.refine} times"
+    chosen = ("" if verified.iteration is None else
+              f"; iteration {verified.iteration}'s growth, the lowest verified along the run")
     refined = (f"verification {verified.status}" if verified.relative is None else
                f"verified shape error {100 * verified.relative:.3g} % (mesh refined {times}, "
-               f"grown from rest{unstable_tag(verified.stability)}{_surface(verified.surface)})")
+               f"grown from rest{unstable_tag(verified.stability)}{_surface(verified.surface)}"
+               f"{chosen})")
     lifted = verified.lifted
     if lifted is None:
         return refined

@@ -112,6 +112,9 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     if cfg.verify.lift_degree is not None and cfg.verify.lift is None:
         errors.append("verify.lift_degree: the growth's degree on the body of verify.lift, "
                       "which is not set; set verify.lift or remove the key")
+    if cfg.verify.best == "verified" and not (cfg.verify.enabled and cfg.verify.every):
+        errors.append("verify.best: 'verified' chooses among verify.every's checks; set "
+                      "verify.every (e.g. 20) with verify.enabled: true, or verify.best: self")
     _check_names(cfg, errors)
     _check_expressions(cfg, growth, errors)
     if cfg.target is not None:

@@ -428,6 +428,13 @@ class VerifyConfig:
         "`refine`, from rest; verified.csv: the verified error along the run, for the time "
         "to a verified error; each check costs a refined solve from rest; 0: only at the "
         "end)", 0, ge=0)
+    best: str = option(
+        "the growth the run ends on, writes and leads with: `self`, the optimiser's best by "
+        "its own number; `verified`, the lowest verified error among `every`'s checks and "
+        "the optimiser's best (each grown from rest on the refined mesh, the reduced model's "
+        "own number where it is lifted), so that where a run ends on its path does not "
+        "decide its verified number (a coarse-to-fine level hands its winner to the next)",
+        "self", choices=("self", "verified"))
     lift_refine: int | None = option(
         "refinements of the lift config's finest level for the lift (default: that config's "
         "own verify.refine, where its runs verify; fewer where the 3D body cannot be grown "

@@ -56,6 +56,9 @@ class Verified:
     # ``relative`` without its clouds' sampling (Objective.surface_hausdorff; None where not
     # measured: a file target compared as a volume, a failed solve, an older summary)
     surface: float | None = None
+    # verify.best: verified: the run's iteration of verify.every's check whose growth this is
+    # (None: the optimiser's best design, by its own number)
+    iteration: int | None = None
 
     @property
     def headline(self) -> float | None:
