@@ -75,6 +75,7 @@ class VerifyEvery(Callback):
         self.local = local
         self.checks: list[Check] = []
         self.best: Candidate | None = None
+        self.last: Candidate | None = None  # the latest check made here (not read back)
         # a resumed run's earlier checks of this level, by iteration (read on every rank)
         self.earlier = {c.iteration: c for c in read_checks(path) if c.level == level} \
             if local is not None else {}
@@ -97,6 +98,8 @@ class VerifyEvery(Callback):
         self.checks.append(check)
         append_check(self.path, check, self.model.comm)
         self._keep(check, verified, step.x)
+        if self.local is not None:
+            self.last = Candidate(check, self.local(step.x).copy(), verified)
 
     def _keep(self, check: Check, verified: Verified | None, x: np.ndarray) -> None:
         """The check's design as the best so far where its verified number is lower (the
