@@ -245,8 +245,9 @@ def _scripted_verify(monkeypatch, relatives):
 def test_verify_best_ends_the_run_on_the_lowest_verified_growth(shared_tmp, monkeypatch):
     """verify.best: verified, checks at iterations 1 and 3 (verified 20 % and 50 %,
     scripted): the optimiser's best (iteration 3, by its own number; not verified again)
-    is no lower, so the run ends on iteration 1's growth: its state (the self-reported numbers of that row of
-    history.csv), its growth written, its check the headline, named by iteration."""
+    is no lower, so the run ends on iteration 1's growth: its state (the self-reported
+    numbers of that row of history.csv), its growth written, its check the headline, named
+    by iteration."""
     script = [0.2, 0.5]
     asked = _scripted_verify(monkeypatch, script)
     out = shared_tmp / "best"

@@ -253,8 +253,8 @@ def choose_verified(cfg, done: Optimised, settled: Settled
                     ) -> tuple[Optimised, Settled, Verified | None]:
     """``verify.best: verified``: the optimiser's best design verified (not again where it
     is a check's design: the lowest's or the latest's) against the lowest of the level's
-    checks; the run goes on
-    with the lower, settled there, and its verification (None without checks)."""
+    checks; the run goes on with the lower, settled there, and its verification (None
+    without checks)."""
     best = done.candidate
     if best is None:
         return done, settled, None
