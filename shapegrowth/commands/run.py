@@ -259,14 +259,14 @@ def choose_verified(cfg, done: Optimised, settled: Settled
     if best is None:
         return done, settled, None
     comm = done.model.comm
-    same = comm.allreduce(bool(np.array_equal(best.design, done.best)), op=MPI.LAND)
+    same = _designed(best, done.best, comm)
     if same and best.verified is not None:
         return done, settled, dataclasses.replace(best.verified,
                                                   branch_changed=settled.branch_changed)
     changed, refine = settled.branch_changed, cfg.verify.refine
     latest = done.latest
-    if latest is not None and latest.verified is not None and comm.allreduce(
-            bool(np.array_equal(latest.design, done.best)), op=MPI.LAND):
+    if latest is not None and latest.verified is not None and _designed(latest, done.best,
+                                                                         comm):
         # the optimiser's best is the latest check's design: verified there already
         own = dataclasses.replace(latest.verified, branch_changed=changed)
     elif settled.final is not None:
@@ -285,6 +285,11 @@ def choose_verified(cfg, done: Optimised, settled: Settled
     verified = best.verified if best.verified is not None else verify(done.model, refine)
     return done, settled, dataclasses.replace(verified, branch_changed=settled.branch_changed,
                                               iteration=best.check.iteration)
+
+
+def _designed(check: Candidate, design: np.ndarray, comm) -> bool:
+    """Whether the check's design is ``design`` on every rank (collective)."""
+    return comm.allreduce(bool(np.array_equal(check.design, design)), op=MPI.LAND)
 
 
 def verify_best(cfg, model: ForwardModel, settled: Settled,
