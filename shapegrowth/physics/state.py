@@ -3,7 +3,7 @@
 The total energy (2.8) is
     Pi(u) = int psi(F, C_g) dX - int f . u dX - sum_k int_{Gamma_k} s0_k . u dS,
 its first variation is the residual (5.10)-(5.11) and its second the tangent
-(5.12); both come from ``ufl.derivative``.  PETSc SNES (options prefix
+(5.12); both come from ``ufl.derivative``.  PETSc SNES (newton.py, options prefix
 ``state_``) solves R(u) = 0 by Newton's method with MUMPS by default.
 
 Growth is reached by continuation: the growth applied to the body moves from
@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import logging
 import time
-import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -49,14 +48,14 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import compat
-from ..config import Config, ConfigError, resolved
+from ..config import Config, resolved
 from . import linear
 from .boundary import clamp_conditions
 from .geometry import Domain
 from .growth import Growth
 from .kinematics import Kinematics
 from .material import MooneyRivlin, deformation_gradient
-from .newton import SNES_REASONS, rigid_body_modes, solver_options
+from .newton import NewtonSolver
 from .options import SolverOptions
 from .transfer import interpolate_between_meshes
 
@@ -69,14 +68,6 @@ HOLD_AFTER_CUT = 2
 
 _INSERT, _ADD = PETSc.InsertMode.INSERT, PETSc.InsertMode.ADD
 _FORWARD, _REVERSE = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
-
-
-def _alive(ref: weakref.ref[StateProblem]) -> StateProblem:
-    """The state a solver callback belongs to (a solver outliving its state is a bug)."""
-    state = ref()
-    if state is None:
-        raise RuntimeError("a solver callback outlived its state problem")
-    return state
 
 
 @dataclass
@@ -128,7 +119,7 @@ class StateProblem:
         self.b = compat.create_vector(self.residual_form)
         self._chord_b = compat.create_vector(self.residual_form)
         self._chord_du = self.A.createVecRight()
-        self.snes = self._create_snes()
+        self.newton = NewtonSolver(self.role, self, cfg, self.force_scale(), self.A, self.b)
         self.jacobian_assemblies = 0  # the SNES's linear solver holds factors once this is > 0
         # Newton's relative tolerance for the next warm step (an optimiser's step from the
         # last equilibrium); None: solver.rtol.  Solves from rest always use solver.rtol.
@@ -195,49 +186,28 @@ class StateProblem:
         local = int(np.count_nonzero(~(self._det_F() > 0.0)))  # NaN counts as inverted
         return self.domain.mesh.comm.allreduce(local, MPI.SUM)
 
-    # ---- PETSc -----------------------------------------------------------------------------
-    def _create_snes(self) -> PETSc.SNES:
-        snes = PETSc.SNES().create(self.domain.mesh.comm)
-        self.linear = linear.choose(self.cfg.solver.linear, compat.global_size(self.V),
-                                    self.dim)
-        self.options = SolverOptions(self.role, solver_options(self.cfg, self.force_scale(),
-                                                               self.linear),
-                                     self.cfg.solver.petsc_options)
-        snes.setOptionsPrefix(self.options.prefix)
-        # the SNES holds its callbacks, and petsc4py 3.25 does not show them to Python's
-        # garbage collector: callbacks holding the state would keep it (its mesh, matrices
-        # and MPI communicators) alive for ever.  Measured with dolfinx 0.11's wheel: 17
-        # communicators a model, and MPICH's 2048 ran out in a long session (MUMPS then
-        # crashed in its symmetric scaling)
-        state = weakref.ref(self)
-        snes.setFunction(lambda _snes, x, b: _alive(state).assemble_residual(x, b), self.b)
-        snes.setJacobian(lambda _snes, x, A, _P: _alive(state).assemble_tangent(x, A), self.A)
-        try:
-            with self.options.pushed():
-                snes.setFromOptions()
-        except PETSc.Error as err:
-            code = linear.error_code(err)
-            raise ConfigError([f"solver.petsc_options: PETSc rejected "
-                               f"{self.options.user_keys} (error code {code})"]) from None
-        if self.linear in linear.MULTIGRID:
-            self.A.setNearNullSpace(rigid_body_modes(self.V))
-        self._exact: tuple[PETSc.KSP, SolverOptions] | None = None  # made at a fallback
-        self._preset_failures = 0  # the preset's failed solves in a row
-        self._factored_by_preset = False  # the last Newton solve's factors are the preset's
-        return snes
+    # ---- PETSc: the Newton solver (newton.py) -----------------------------------------------
+    @property
+    def snes(self) -> PETSc.SNES:
+        return self.newton.snes
+
+    @property
+    def options(self) -> SolverOptions:
+        """The state solver's PETSc options (prefix ``state_``)."""
+        return self.newton.options
+
+    @property
+    def linear(self) -> str:
+        """The linear solver's preset, resolved (physics/linear.py)."""
+        return self.newton.linear
 
     def exact_ksp(self) -> tuple[PETSc.KSP, SolverOptions]:
-        """The exact factorisation (MUMPS LU) a failed solve of another preset falls back
-        to: a KSP of its own (options prefix ``<state prefix>exact_``), made once, at the
-        first fallback."""
-        if self._exact is None:
-            ksp = PETSc.KSP().create(self.domain.mesh.comm)
-            options = SolverOptions(self.role, linear.EXACT, prefix=self.options.prefix + "exact_")
-            ksp.setOptionsPrefix(options.prefix)
-            with options.pushed():
-                ksp.setFromOptions()
-            self._exact = (ksp, options)
-        return self._exact
+        """The exact factorisation a failed solve of another preset falls back to."""
+        return self.newton.exact_ksp()
+
+    def inertia(self) -> int | None:
+        """The negative pivots of the last Newton step's LDL^T (see NewtonSolver.inertia)."""
+        return self.newton.inertia()
 
     def assemble_residual(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
         """R(x) into ``b``, with the Dirichlet rows set to x - g (SNES's residual)."""
@@ -304,91 +274,11 @@ class StateProblem:
     def _warm_rtol(self) -> float:
         return self.cfg.solver.rtol if self.warm_rtol is None else self.warm_rtol
 
-    def _newton(self, reference: float | None = None,
-                rtol: float | None = None) -> tuple[bool, int, str]:
-        """Newton's method from ``self.u``; ``reference``: the residual norm its relative
-        tolerance is taken of (default: the residual at the start); ``rtol``: that
-        tolerance (default solver.rtol).  Where the preset's linear solve fails, the same
-        solve again from the same start with the exact factorisation (linear.py)."""
-        self._factored_by_preset = False
-        if self._preset_failures >= linear.GIVE_UP_AFTER:  # the preset does not hold here
-            return self._exact_solve(reference, rtol)
-        start = self.u.x.array.copy() if self.linear != "mumps" else None
-        ok, its, reason, linear_failed = self._snes_solve(reference, rtol)
-        if not linear_failed or start is None:
-            self._preset_failures = 0
-            self._factored_by_preset = its > 0
-            return ok, its, reason
-        linear.record_fallback(self.role, self.linear, reason)
-        linear.reset_after_failure(self.snes.getKSP())
-        self._preset_failures += 1
-        if self._preset_failures == linear.GIVE_UP_AFTER:
-            linear.give_up(self.role, self.linear)
-        self.u.x.array[:] = start
-        ok, more, reason = self._exact_solve(reference, rtol)
-        return ok, its + more, reason
-
     def equilibrate(self) -> tuple[bool, int, str]:
         """Newton's method from the current displacement under the growth applied now (a
         state moved off its equilibrium, e.g. onto another branch): converged, iterations,
         reason."""
-        return self._newton()
-
-    def inertia(self) -> int | None:
-        """The number of negative pivots of the last Newton step's factorisation where it is
-        MUMPS's LDL^T of the tangent (its inertia: the tangent's negative eigenvalues, at
-        the state one step before the converged one), else None (collective)."""
-        pc = self.snes.getKSP().getPC()
-        if not self._factored_by_preset or pc.getType() != "cholesky" or \
-                pc.getFactorSolverType() != "mumps":
-            return None
-        return int(pc.getFactorMatrix().getMumpsInfog(12))
-
-    def _exact_solve(self, reference: float | None, rtol: float | None) -> tuple[bool, int, str]:
-        """:meth:`_snes_solve` with the exact factorisation in place of the preset's KSP."""
-        ksp, options = self.exact_ksp()
-        preset = self.snes.getKSP()
-        self.snes.setKSP(ksp)
-        try:
-            with options.pushed():
-                ok, its, reason, _ = self._snes_solve(reference, rtol)
-        finally:
-            self.snes.setKSP(preset)
-        return ok, its, reason
-
-    def _snes_solve(self, reference: float | None,
-                    rtol: float | None) -> tuple[bool, int, str, bool]:
-        """One SNES solve (see :meth:`_newton`); the last: whether its linear solver failed
-        (PETSc's reason in the third)."""
-        x = compat.petsc_vec(self.u)
-        tolerances = self.snes.getTolerances()  # rtol, atol, stol, max_it
-        rtol = tolerances[0] if rtol is None else rtol
-        if reference is not None:  # the same stopping residual as without the predictor
-            self.snes.setTolerances(rtol=0.0, atol=max(rtol * reference, tolerances[1]))
-        elif rtol != tolerances[0]:
-            self.snes.setTolerances(rtol=rtol)
-        try:
-            with self.options.pushed():
-                self.snes.solve(None, x)
-        except PETSc.Error as err:  # e.g. a factorisation that broke down
-            failure = f"PETSc error {linear.error_code(err)}"
-            return False, self.snes.getIterationNumber(), failure, True
-        finally:
-            if reference is not None or rtol != tolerances[0]:
-                self.snes.setTolerances(rtol=tolerances[0], atol=tolerances[1])
-        reason = linear.reason_of(self.snes)
-        its = self.snes.getIterationNumber()
-        self.u.x.scatter_forward()
-        ok = self.domain.mesh.comm.allreduce(
-            bool(reason > 0 and np.isfinite(self.u.x.array).all()), MPI.LAND)
-        if not ok:
-            if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
-                return False, its, linear.ksp_reason(self.snes.getKSP()), True
-            return False, its, SNES_REASONS.get(reason, str(reason)), False
-        inverted = self.inverted_points()
-        if inverted:
-            return False, its, f"det F <= 0 at {inverted} sample points", False
-        return True, its, SNES_REASONS[reason], False
+        return self.newton.solve()
 
     # ---- continuation ----------------------------------------------------------------------
     # The state's lifecycle: at rest (after construction or ``reset``), in equilibrium with
@@ -469,7 +359,7 @@ class StateProblem:
                     self.jacobian_assemblies > 0:  # a warm step: the tangent predictor
                 reference, chords = self._chord()
                 report.chord_steps += chords
-            ok, its, reason = self._newton(reference, rtol)
+            ok, its, reason = self.newton.solve(reference, rtol)
             report.newton_iterations += its
             if ok:
                 previous = (t, saved.copy())
