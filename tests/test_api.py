@@ -326,7 +326,7 @@ def test_a_run_the_budget_ended_while_improving_says_so(caplog, request):
     """The closing lines warn where the iteration budget, not the stopping test, ended a
     run whose J still fell over the window (100 iterations on the reachable quarter arc),
     and stay quiet on a run that had stalled."""
-    from shapegrowth.commands.run import report_budget
+    from shapegrowth.commands.report import report_budget
 
     logger = logging.getLogger("shapegrowth")  # it may not propagate (logs.configure)
     logger.addHandler(caplog.handler)

@@ -62,22 +62,22 @@ def test_a_verified_number_on_an_unstable_state_says_so_beside_it():
     """Scene 4's section lifted onto hexahedra: the symmetric mesh holds the disk on its
     axisymmetric path past the bifurcation (0.68 %, 4 negative eigenvalues): the headline
     carries UNSTABLE where it lost stability; a stable state's headline carries nothing."""
-    from shapegrowth.commands.run import _verified_text
+    from shapegrowth.commands.report import verified_text
     from shapegrowth.optim.lift import Lifted
     from shapegrowth.physics.stability import Stability
 
     stable = Stability((0.6, 1.2), 0)
     unstable = Stability((-0.0227, -0.0227, -0.0152), 4, lost_at=0.35, kind="bifurcation")
     lifted = Lifted(0.0131, 0.00681, 24480, 35.0, "solved", "disk_cone", 0.006, unstable)
-    text = _verified_text(Verified(0.0038, 0.00476, 1, 42306, 13.7, False, "solved", lifted,
+    text = verified_text(Verified(0.0038, 0.00476, 1, 42306, 13.7, False, "solved", lifted,
                                    stable))
     head, section = text.split("; the reduced model's ")
     assert "0.681 %" in head and "UNSTABLE since 0.35 of the growth" in head
     assert "0.476 %" in section and "UNSTABLE" not in section
-    alone = _verified_text(Verified(0.0038, 0.00476, 1, 42306, 13.7, False, "solved", None,
+    alone = verified_text(Verified(0.0038, 0.00476, 1, 42306, 13.7, False, "solved", None,
                                     unstable))
     assert "0.476 %" in alone and "UNSTABLE since 0.35" in alone
-    chosen = _verified_text(Verified(0.0038, 0.00476, 1, 42306, 13.7, False, "solved",
+    chosen = verified_text(Verified(0.0038, 0.00476, 1, 42306, 13.7, False, "solved",
                                      iteration=120))
     assert "iteration 120's growth, the lowest verified along the run" in chosen
 
