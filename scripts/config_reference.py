@@ -1,4 +1,5 @@
-"""Write docs/CONFIG.md, the config reference, from the schema in shapegrowth/config/sections.py.
+"""Write docs/CONFIG.md, the config reference, from the schema in shapegrowth/config/
+(sections.py and numerics.py).
 
     .venv/bin/python scripts/config_reference.py        (tests/test_config.py checks it)
 """

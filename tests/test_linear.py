@@ -16,7 +16,7 @@ from conftest import CONFIGS, ROOT, read_json, run_cli
 from mpi4py import MPI
 
 from shapegrowth.config import ConfigError, load
-from shapegrowth.config.sections import SolverConfig
+from shapegrowth.config.numerics import SolverConfig
 from shapegrowth.physics import linear
 
 BEND = CONFIGS / "tiny" / "beam_bend.yaml"

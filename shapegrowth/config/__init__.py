@@ -1,9 +1,21 @@
-"""The config layer: typed sections (sections.py), their schema (schema.py), cross-field
+"""The config layer: typed sections (sections.py, the body's; numerics.py, the objective's,
+optimiser's, solver's, verification's and outputs'), their schema (schema.py), cross-field
 checks (checks.py), the whole :class:`Config`, valid by construction (root.py), loading with
 overrides (loading.py), expressions (expressions.py) and the target map's derivatives
 (maps.py).  ``from shapegrowth.config import load, Config``."""
 
 from .loading import apply_overrides, from_dict, load, reference_text
+from .numerics import (
+    ComplexityConfig,
+    ContinuationConfig,
+    HausdorffConfig,
+    ObjectiveConfig,
+    OptimizerConfig,
+    OutputConfig,
+    SolverConfig,
+    StabilityPenaltyConfig,
+    VerifyConfig,
+)
 from .root import Config
 from .sections import (
     BOUNDARIES,
@@ -14,26 +26,17 @@ from .sections import (
     PAPER_ANGLE_BOUNDS_3D,
     AnglesConfig,
     BoundaryConfig,
-    ComplexityConfig,
     ConfigError,
-    ContinuationConfig,
     EigenvaluesConfig,
     GeometryConfig,
     GrowthConfig,
-    HausdorffConfig,
     LoadsConfig,
     MaterialConfig,
     MeshConfig,
     ModelConfig,
-    ObjectiveConfig,
-    OptimizerConfig,
-    OutputConfig,
     Scalar,
-    SolverConfig,
-    StabilityPenaltyConfig,
     TargetConfig,
     TransformConfig,
-    VerifyConfig,
     resolved,
 )
 

@@ -85,7 +85,7 @@ def reference_text() -> str:
     """docs/CONFIG.md: every key with its type, default, allowed values and meaning."""
     return reference_markdown(
         Config, "Config reference",
-        "Generated from the schema in `shapegrowth/config/sections.py` by "
+        "Generated from the schema in `shapegrowth/config/sections.py` and `numerics.py` by "
         "`scripts/config_reference.py` (a test fails when this file and the schema differ). "
         "Keys are dotted paths: `--set mesh.size=0.05` overrides one. Numbers may be written "
         "`1e-7`; growth initial values and target maps may be expressions (see README).")

@@ -16,6 +16,13 @@ from pathlib import Path
 from typing import Any
 
 from .checks import resolve_and_check
+from .numerics import (
+    ObjectiveConfig,
+    OptimizerConfig,
+    OutputConfig,
+    SolverConfig,
+    VerifyConfig,
+)
 from .reduction import Section, section_of
 from .schema import build, option
 from .sections import (
@@ -28,12 +35,7 @@ from .sections import (
     MaterialConfig,
     MeshConfig,
     ModelConfig,
-    ObjectiveConfig,
-    OptimizerConfig,
-    OutputConfig,
-    SolverConfig,
     TargetConfig,
-    VerifyConfig,
 )
 
 # True while the loader builds a Config (its parts are checked once, when it is whole)
