@@ -35,7 +35,7 @@ help:
 	@echo "make test-dolfinx011 - the fast tier on dolfinx 0.11's pip wheels in that root (root)"
 	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
 	@echo "make bench  - the performance benchmark (results/bench/bench.json, minutes)"
-	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (54-61 min on 2 cores)"
+	@echo "make reproduce - every paper scene under mpirun, then docs/RESULTS.md (54-74 min on 2 cores)"
 	@echo "make reproduce-twice - the reproduction's runs verified on their meshes refined once more"
 	@echo "make reproduce-cube - scene 6 as the paper ran it: the 3D cube, fixed against free frame (14 min)"
 	@echo "make reproduce-compare OTHER=DIR - results/reproduce against a second reproduction's run folders"
@@ -131,7 +131,7 @@ bench: setup
 	$(BIN)/shapegrowth bench
 
 # The paper's scenes under mpirun -n $(NP), resumable, then docs/RESULTS.md from the runs
-# (54-61 min on 2 cores; an interrupted reproduction continues where it stopped).
+# (54-74 min on 2 cores; an interrupted reproduction continues where it stopped).
 reproduce: setup
 	$(BIN)/python scripts/reproduce.py --ranks $(NP)
 
