@@ -149,7 +149,8 @@ reproduce-cube: setup
 reachable: setup
 	$(BIN)/python scripts/reachable.py --algorithms mma,slsqp
 
-# docs/REPRODUCIBILITY.md: this clone's reproduction against another's (exit 1 beyond 5 %)
+# docs/REPRODUCIBILITY.md: this clone's reproduction against another's (exit 1 beyond 5 %); the sections
+# measured by hand below its KEPT line are kept
 reproduce-compare: setup
 	@test -n "$(OTHER)" || { echo "reproduce-compare: set OTHER=<another clone>/results/reproduce"; exit 2; }
 	$(BIN)/python scripts/reproduce.py --compare $(OTHER)

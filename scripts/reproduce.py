@@ -609,6 +609,18 @@ def _relative(a: float | None, b: float | None) -> float | None:
     return 0.0 if scale == 0 else abs(a - b) / scale
 
 
+# The line in docs/REPRODUCIBILITY.md after which its sections are measurements written by hand
+# (one reproduction against the one before, the tube's path): --compare keeps them
+KEPT = "<!-- --compare writes what is above this line and keeps what is below it -->"
+
+
+def with_kept(text: str, previous: str) -> str:
+    """A new --compare report followed by the previous report's sections below :data:`KEPT`
+    (none where it has no such line)."""
+    i = previous.find(KEPT)
+    return text if i < 0 else text.rstrip("\n") + "\n\n" + previous[i:]
+
+
 def compare(out: Path, other: Path, rtol: float) -> tuple[str, bool]:
     """Two reproductions side by side: a markdown report and whether they agree to ``rtol``.
 
@@ -730,7 +742,8 @@ def main() -> int:
     args = parser.parse_args()
     if args.compare is not None:
         text, agree = compare(args.out.resolve(), args.compare.resolve(), args.rtol)
-        args.report.write_text(text)
+        previous = args.report.read_text() if args.report.is_file() else ""
+        args.report.write_text(with_kept(text, previous))
         print(text, end="")
         return 0 if agree else 1
     only = {n for n in args.only.split(",") if n}

@@ -593,3 +593,18 @@ def test_a_free_frame_starts_from_a_fixed_frame_run(shared_tmp):
     rows = history(free)
     assert rows[0]["objective"] == pytest.approx(best_fixed, rel=1e-9)
     assert min(r["objective"] for r in rows) < best_fixed
+
+
+def test_reproduce_compare_keeps_the_sections_measured_by_hand():
+    """--compare rewrites the report above docs/REPRODUCIBILITY.md's KEPT line and keeps the
+    measured comparisons below it (before, it wrote the report over the whole file)."""
+    reproduce = _reproduce_module()
+    previous = ("# Reproducibility\n\nold table\n\n" + reproduce.KEPT +
+                "\n\n## The eleventh reproduction against the tenth\n\nmeasured\n")
+    text = reproduce.with_kept("# Reproducibility\n\nnew table\n", previous)
+    assert "new table" in text and "old table" not in text
+    assert text.endswith(reproduce.KEPT + "\n\n## The eleventh reproduction against the "
+                         "tenth\n\nmeasured\n")
+    assert reproduce.with_kept("new\n", "no such line") == "new\n"
+    shipped = (ROOT / "docs" / "REPRODUCIBILITY.md").read_text()
+    assert shipped.count(reproduce.KEPT) == 1
