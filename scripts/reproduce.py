@@ -1,6 +1,7 @@
 """Run the paper's scenes and write docs/RESULTS.md from what they leave behind.
 
-    .venv/bin/python scripts/reproduce.py [--ranks 2] [--only NAME,... | --all] [--cube] [--twice]
+    .venv/bin/python scripts/reproduce.py [--ranks 2] [--only NAME,... | --all] [--models]
+                                          [--cube] [--twice]
                                           [--set KEY=VALUE ...] [--out results/reproduce]
                                           [--results docs/RESULTS.md]
     .venv/bin/python scripts/reproduce.py --compare OTHER_OUT [--out results/reproduce]
@@ -9,10 +10,15 @@
 Every run of SCENES (the 3D configs, the reduced models of scenes 1, 2, 4 and 5 lifted to
 3D, and 3D runs started from a section's optimum) runs under ``mpirun -n RANKS`` into
 OUT/NAME, resumed from its checkpoint when one is there and skipped when its summary.json is
-final, so an interrupted reproduction continues where it stopped.  The three 3D runs
+final, so an interrupted reproduction continues where it stopped.  The default set is one
+run per scene on the model that wins the measurements (the section lifted for scenes 1, 2
+and 5, the 3D disk for scene 4, the 3D tube; docs/TRADEOFFS.md, 'One page') and scene 6's
+two squares; each scene's other model (the 3D beams and shell, the disk's section) is a
+measurement of that choice, 23 of the eleventh reproduction's 74 minutes: it runs with
+``--models`` (``make reproduce-models``) or ``--all``.  The three 3D runs
 restarted from a section's optimum are measurements of the reduced models (how far the 3D
 body leaves its section), not the scenes' results, and took 42 minutes more in the
-reproduction that ran them (the default set: 47 minutes on 2 cores): they run with
+reproduction that ran them (the default set then: 47 minutes on 2 cores): they run with
 ``--all`` or ``--only NAME``, and a finished one is reported either way.  The table and the
 figures (each run's history.png and shape.png, copied to docs/img/results/) are then made
 from the summaries alone: every number in RESULTS.md comes from a run folder.  The table
@@ -71,8 +77,9 @@ class Scene:
     model: str
     paper: str
     overrides: tuple[str, ...] = ()
-    # not in the default set: "restart" (a 3D run from a section's optimum, with --all) or
-    # "cube" (scene 6's 3D cube, with --cube or --all); either can be named with --only
+    # not in the default set: "model" (a scene's other model, beside the one that wins, with
+    # --models or --all), "restart" (a 3D run from a section's optimum, with --all) or "cube"
+    # (scene 6's 3D cube, with --cube or --all); each can be named with --only
     group: str = ""
     # why the refined-twice check is not run (a measured limit of this machine), or ""
     twice_limit: str = ""
@@ -115,12 +122,13 @@ _UNIFORM = ("growth.start=given",
 _CUBE_TWICE = ("not run: x2 is ~370k DOFs of a solid cube (8x the verification's; a solid "
                "block's factor fills most: PERFORMANCE.md, 'The largest solve from rest')")
 SCENES = [
-    Scene(1, "beam_wave", "beam_wave", "3D", f"{_SAME} (Figs. 3a, 4)", twice_limit=_block(2)),
+    Scene(1, "beam_wave", "beam_wave", "3D", f"{_SAME} (Figs. 3a, 4)", group="model",
+          twice_limit=_block(2)),
     Scene(1, "beam_wave_2d", "beam_wave_2d", "X1-X3 section, plane stress", f"{_SAME}",
           twice_limit=f"lifted {_block(2)}"),
     Scene(1, "beam_wave_from_2d", "beam_wave", "3D from the section's optimum (40 + 20)",
           _SAME, (*_FROM, "growth.from_run={out}/beam_wave_2d"), group="restart"),
-    Scene(2, "beam_ring", "beam_ring", "3D", f"{_SAME} (Fig. 3b)"),
+    Scene(2, "beam_ring", "beam_ring", "3D", f"{_SAME} (Fig. 3b)", group="model"),
     Scene(2, "beam_ring_2d", "beam_ring_2d", "X1-X3 section, plane stress", _SAME,
           # lifted where scene 1's is (verify.lift_refine: 2), so checked once more at x3
           twice_limit=f"lifted {_block(3)}"),
@@ -128,10 +136,11 @@ SCENES = [
           twice_limit=f"not run: x2 is ~1.85M DOFs (8x the verification's; {_LARGEST})"),
     Scene(4, "disk_cone", "disk_cone", "3D", f"{_SAME} (Fig. 7)",
           twice_limit=f"not run: x2 is ~1.1M DOFs (8x the verification's; {_LARGEST})"),
-    Scene(4, "disk_cone_axi", "disk_cone_axi", "(R, Z) section, axisymmetric", _SAME),
+    Scene(4, "disk_cone_axi", "disk_cone_axi", "(R, Z) section, axisymmetric", _SAME,
+          group="model"),
     Scene(4, "disk_cone_from_axi", "disk_cone", "3D from the section's optimum (40 + 20)",
           _SAME, (*_FROM, "growth.from_run={out}/disk_cone_axi"), group="restart"),
-    Scene(5, "cylinder_flare", "cylinder_flare", "3D", f"{_SAME} (Fig. 8)",
+    Scene(5, "cylinder_flare", "cylinder_flare", "3D", f"{_SAME} (Fig. 8)", group="model",
           twice_limit=f"x2: {_FLARE_TWICE}"),
     Scene(5, "cylinder_flare_axi", "cylinder_flare_axi", "(R, Z) section, axisymmetric", _SAME,
           twice_limit=f"lifted x2, not run: the shell of cylinder_flare's check ({_FLARE_TWICE})"),
@@ -177,9 +186,9 @@ WHY: dict[int, str] = {
        "clamped across its width: the 3D body leaves the section (the departure in the "
        "table). A filter of a quarter of the thickness removes that detail (configs/"
        "beam_wave_2d.yaml; TRADEOFFS, 'Filter lengths and design sets, judged verified'), "
-       "while a 3D mesh graded towards the clamp does not; the 3D run's self-reported number "
-       "is below its verified one: it exploits its own mesh (TRADEOFFS, 'The finding that "
-       "matters most').",
+       "while a 3D mesh graded towards the clamp does not; the 3D run's (beam_wave, "
+       "`--models`) self-reported number is below its verified one: it exploits its own mesh "
+       "(TRADEOFFS, 'The finding that matters most').",
     2: "Read as the solid ring (the printed map has no thickness: a floor of t/2 over the "
        "target size, 3.1 %, where every run of it ended), the section verifies below 1 %. "
        "Its lift is made where scene 1's is (verify.lift_refine: 2, the 3D strip refined "
@@ -189,9 +198,9 @@ WHY: dict[int, str] = {
        "interpolation (TRADEOFFS, 'A lift's growth of degree 2'). What is left sits at the "
        "clouds' own sampling of a ring: the target's cloud turned along itself reads "
        "0.94-1.03 % (TRADEOFFS, 'The verified number's sampling'); surface to surface, the "
-       "same state reads below 1 % (the table's second column). The 3D run lands far from "
-       "the section's lift, its self-reported number a tenth of its verified one: it fits its "
-       "own coarse mesh (TRADEOFFS, 'What 1 % would take').",
+       "same state reads below 1 % (the table's second column). The 3D run (beam_ring, "
+       "`--models`) lands far from the section's lift, its self-reported number a tenth of its "
+       "verified one: it fits its own coarse mesh (TRADEOFFS, 'What 1 % would take').",
     3: "A helix has no section model. On the tube meshed with its ring counts restored (16 "
        "P2 segments round at h 0.5; TRADEOFFS, 'The tube's and the shell's ring') the run's "
        "self-reported number is about half its verified one: its own mesh does not yet "
@@ -210,8 +219,10 @@ WHY: dict[int, str] = {
        "verification), and the same run on to 300 iterations at 3.81 % against 0.93 %: the "
        "verified number is not monotone along the path, and where the budget stops it "
        "decides (TRADEOFFS, 'Scene 3 on a finer ring').",
-    4: "The section reaches its target, but the 3D disk grown from rest buckles out of axial "
-       "symmetry (the departure in the table): an equilibrium the section cannot reach, and "
+    4: "The section (disk_cone_axi, `--models`) reaches its target, but the 3D disk grown "
+       "from rest buckles out of axial symmetry (the section's lift leaves it by about 6 %: "
+       "TRADEOFFS, 'The reproduction, with the departure'): an equilibrium the section cannot "
+       "reach, and "
        "no filter helps (each sends the growth from rest onto another equilibrium); the 3D "
        "run's verified number is several times its self-reported one (TRADEOFFS, 'Reduced "
        "models', 'A second finding', 'Filter lengths and design sets, judged verified')."
@@ -231,13 +242,17 @@ WHY: dict[int, str] = {
 }
 
 
-def selected(only: set[str], everything: bool, cube: bool = False) -> list[Scene]:
+def selected(only: set[str], everything: bool, cube: bool = False,
+             models: bool = False) -> list[Scene]:
     """The runs to make: those named, else all of them with ``everything``, else all but the
-    extra measurements (the 3D cube's runs too with ``cube``)."""
+    extra measurements (the 3D cube's runs too with ``cube``, each scene's other model with
+    ``models``)."""
     if only:
         return [scene for scene in SCENES if scene.name in only]
+    asked = {"cube"} if cube else set()
+    asked |= {"model"} if models else set()
     return [scene for scene in SCENES
-            if everything or not scene.extra or (cube and scene.group == "cube")]
+            if everything or not scene.extra or scene.group in asked]
 
 
 finished = launch.read_summary  # the run's summary.json (written when a run ends), or None
@@ -424,7 +439,7 @@ def _time_taken(rows: list[tuple[Scene, RunSummary | None]], out: Path) -> list[
         return []
     text = (f"The {len(default)} runs of this reproduction took **{sum(default) / 60:.0f} "
             "min** together (their wall times added up, verification and lift included)")
-    text += (f"; the {len(extra)} extra measurements (`--all`, `--cube`) another "
+    text += (f"; the {len(extra)} extra measurements (`--all`, `--models`, `--cube`) another "
              f"{sum(extra) / 60:.0f} min." if extra else ".")
     checks = [c for c in (read_twice(out / scene.name, s) for scene, s in rows
                           if s is not None) if c is not None]
@@ -478,6 +493,11 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
             f"{_twice(scene, out / scene.name, s)} | {_pc(s.relative_error)} | "
             f"{s.dofs.state} | {s.dofs.design} | {s.iterations} | {_seconds(s)}{ranks} | "
             f"{s.status} | {scene.paper} |")
+    if "model" in missing:
+        lines += ["", f"Not in this reproduction: {', '.join(missing['model'])} (each scene's "
+                      "other model, measured beside the one tabled above, which wins: "
+                      "`make reproduce-models`; their last measured numbers are in "
+                      "docs/TRADEOFFS.md, 'The reproduction, with the departure')."]
     if "restart" in missing:
         lines += ["", f"Not in this reproduction: {', '.join(missing['restart'])} (3D runs "
                       "restarted from a section's optimum, measurements of the reduced "
@@ -727,7 +747,10 @@ def main() -> int:
     parser.add_argument("--ranks", type=int, default=2)
     parser.add_argument("--only", default="", help="comma-separated config names")
     parser.add_argument("--all", dest="everything", action="store_true",
-                        help="also the 3D runs restarted from a section's optimum")
+                        help="also the other models, the 3D runs restarted from a "
+                             "section's optimum and the 3D cube")
+    parser.add_argument("--models", action="store_true",
+                        help="also each scene's other model (the 3D body or the section)")
     parser.add_argument("--cube", action="store_true",
                         help="also scene 6's 3D cube as the paper ran it (four runs)")
     parser.add_argument("--twice", action="store_true",
@@ -753,7 +776,7 @@ def main() -> int:
               f"{', '.join(scene.name for scene in SCENES)})", file=sys.stderr)
         return 2
     rows: list[tuple[Scene, RunSummary | None]] = []
-    chosen = selected(only, args.everything, args.cube)
+    chosen = selected(only, args.everything, args.cube, args.models)
     for scene in SCENES:
         if scene in chosen:
             summary = run_scene(scene, args.out.resolve(), args.ranks, args.overrides)

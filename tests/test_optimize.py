@@ -401,17 +401,24 @@ def _reproduce_module():
 
 
 def test_reproduce_runs_the_restarts_only_when_asked():
-    """The 3D restarts from a section's optimum and the 3D cube are measurements: not in the
-    default set, the cube's with --cube, all of them with --all, and each can be named."""
+    """Each scene's other model, the 3D restarts from a section's optimum and the 3D cube are
+    measurements: not in the default set (one run per scene 1-5, on the model that wins, and
+    the two squares), the other models with --models, the cube's with --cube, all of them
+    with --all, and each can be named."""
     reproduce = _reproduce_module()
+    models = {"beam_wave", "beam_ring", "disk_cone_axi", "cylinder_flare"}
     restarts = {"beam_wave_from_2d", "disk_cone_from_axi", "cylinder_flare_from_axi"}
     cube = {"cube_cylinder_fixed", "cube_cylinder_free", "cube_cylinder_fixed_uniform",
             "cube_cylinder_free_staged"}
     every = {scene.name for scene in reproduce.SCENES}
-    assert {scene.name for scene in reproduce.SCENES if scene.extra} == restarts | cube
-    assert {scene.name for scene in reproduce.selected(set(), False)} == every - restarts - cube
+    assert {scene.name for scene in reproduce.SCENES if scene.extra} == models | restarts | cube
+    default = reproduce.selected(set(), False)
+    assert {scene.name for scene in default} == every - models - restarts - cube
+    assert [scene.number for scene in default] == [1, 2, 3, 4, 5, 6, 6]
     assert {scene.name for scene in reproduce.selected(set(), False, cube=True)} == \
-        every - restarts
+        every - models - restarts
+    assert {scene.name for scene in reproduce.selected(set(), False, models=True)} == \
+        every - restarts - cube
     assert {scene.name for scene in reproduce.selected(set(), True)} == every
     assert [s.name for s in reproduce.selected({"disk_cone_from_axi"}, False)] == [
         "disk_cone_from_axi"]
