@@ -46,9 +46,9 @@ def main() -> int:
     for _ in range(args.repeats):
         ksp = PETSc.KSP().create(comm)
         ksp.setOperators(A)
-        ksp.setOptionsPrefix(state.options.prefix)  # the state's linear solver and options
+        ksp.setOptionsPrefix(state.newton.options.prefix)  # the state's linear solver and options
         x = b.duplicate()
-        with state.options.pushed():
+        with state.newton.options.pushed():
             ksp.setFromOptions()
             ksp.solve(b, x)
         solutions.append(x.array.copy())

@@ -73,7 +73,7 @@ def test_two_models_in_one_process_keep_their_own_options():
         "solver.petsc_options.filter_ksp_rtol=1e-9"]))
     plain = sg.build_model(sg.load_config(SQUARE, ["growth.filter_length=0.5"]))
     rf_tight, rf_plain = sg.ReducedFunctional(tight), sg.ReducedFunctional(plain)
-    snes_a, snes_b = tight.state.snes, plain.state.snes
+    snes_a, snes_b = tight.state.newton.snes, plain.state.newton.snes
     assert snes_a.getOptionsPrefix() != snes_b.getOptionsPrefix()
     assert snes_a.getTolerances()[3] == 7
     assert snes_b.getTolerances()[3] == plain.cfg.solver.max_newton_iterations == 15

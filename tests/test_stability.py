@@ -202,10 +202,11 @@ def test_the_mass_matrix_keeps_only_its_nonzeros(shared_tmp):
 class _Path:
     """A stand-in for StabilityProblem: the lowest eigenvalues of a path, in order."""
 
-    class state:  # noqa: N801  (no LDL^T inertia: every step assessed)
-        @staticmethod
-        def inertia() -> None:
-            return None
+    class state:  # noqa: N801
+        class newton:  # noqa: N801  (no LDL^T inertia: every step assessed)
+            @staticmethod
+            def inertia() -> None:
+                return None
 
     def __init__(self, values):
         self.values = iter(values)

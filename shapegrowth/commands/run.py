@@ -114,7 +114,7 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
             write_outputs(out, done, extra=[problem.mode] if stability else [])
         verified = verify_best(cfg, done.model, settled, refined)
     summary = dataclasses.replace(summarise(cfg, done, settled, verified, timer, resume),
-                                  linear_solver=linear_use(done.model.state.linear, tally),
+                                  linear_solver=linear_use(done.model.state.newton.linear, tally),
                                   stability=stability)
     io.write_json(out / "summary.json", summary.to_json())
     report_run(summary, settled, out, done.history, cfg.optimizer.ftol_window)

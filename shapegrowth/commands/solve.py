@@ -112,7 +112,7 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
         probes=tuple(Probe(tuple(map(float, p[:n_probe])), tuple(map(float, d)))
                      for p, d in zip(probes, deformed)))
     summary = base_summary(cfg, model, report, status, timer, solve=measures,
-                           linear_solver=linear_use(model.state.linear, tally),
+                           linear_solver=linear_use(model.state.newton.linear, tally),
                            stability=stability, **shape)
     io.write_json(out / "summary.json", summary.to_json())
     for p, d in zip(probes, deformed):

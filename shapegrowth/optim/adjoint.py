@@ -57,7 +57,7 @@ class AdjointProblem:
         self.A = dolfinx.fem.petsc.create_matrix(state.jacobian_form)
         self.rhs = self.A.createVecRight()
         self.ksp = PETSc.KSP().create(state.domain.mesh.comm)
-        self.linear = state.linear  # the state's preset, resolved
+        self.linear = state.newton.linear  # the state's preset, resolved
         self.options = SolverOptions(self.role, linear.preset_options(self.linear, self.role),
                                      state.cfg.solver.petsc_options)
         if self.linear in linear.MULTIGRID:
@@ -84,7 +84,7 @@ class AdjointProblem:
         compat.set_bc(self.rhs, st.bcs, alpha=0.0)  # p = 0 where u is prescribed
         if self.reuse and self.state.jacobian_assemblies > 0:
             try:
-                with self.state.options.pushed():  # the state's KSP, under its options
+                with self.state.newton.options.pushed():  # the state's KSP, under its options
                     if self._solve_with_state_factors():
                         return self.refinements
             except PETSc.Error as err:  # factors unusable: fall back to fresh ones
@@ -96,7 +96,7 @@ class AdjointProblem:
         if failure and self.linear != "mumps":
             linear.record_fallback(self.role, self.linear, failure)
             linear.reset_after_failure(self.ksp)
-            failure = self._fresh_solve(*self.state.exact_ksp())
+            failure = self._fresh_solve(*self.state.newton.exact_ksp())
         if failure:
             raise AdjointSolveError(f"adjoint solve failed ({failure})")
         self.p.x.scatter_forward()
@@ -119,7 +119,7 @@ class AdjointProblem:
         below ``step_rtol`` of p: the residual of a thin body's tangent stalls at about
         cond(K) x eps of b (1e-9 on the tiny beam, serial and on 2 ranks), as it does after
         a fresh factorisation, and the corrections then fall to ~2e-11 of p."""
-        ksp = self.state.snes.getKSP()
+        ksp = self.state.newton.snes.getKSP()
         p, r, dp = compat.petsc_vec(self.p), self._residual, self._correction
         b_norm = self.rhs.norm()
         p.zeroEntries()

@@ -71,7 +71,7 @@ class ReducedFunctional:
         for rho, field in zip(self.design, self.targets):
             rho.x.array[:] = field.x.array  # the initial growth is the initial design
         self.filter = HelmholtzFilter(self.space, cfg.growth.filter_length,
-                                      cfg.solver.petsc_options, model.state.linear)
+                                      cfg.solver.petsc_options, model.state.newton.linear)
         self.objective = Objective(cfg, model.state)
         self.adjoint = AdjointProblem(model.state)
         self.stability = (StabilityPenalty(model.state, cfg.optimizer.stability)

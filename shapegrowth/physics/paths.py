@@ -58,7 +58,7 @@ class PathWatch:
         self._tries = 0
 
     def __call__(self, t: float) -> bool:
-        negative = self.problem.state.inertia() if self.path else None
+        negative = self.problem.state.newton.inertia() if self.path else None
         if negative == 0:  # stable, known from the Newton step's own LDL^T
             self.path.append((t, float("nan"), 0))
             log.debug("  stability at t = %.4f: no negative pivot", t)
@@ -215,7 +215,7 @@ def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int
     r = compat.create_vector(state.residual_form)
     du = problem.K.createVecRight()
     x = compat.petsc_vec(state.u)
-    atol = state.snes.getTolerances()[1]
+    atol = state.newton.snes.getTolerances()[1]
     largest_residual = 0.0
     try:
         for step in range(iterations):

@@ -118,7 +118,7 @@ class StabilityProblem:
         # one: in core it would set the solve's peak (scene 1's 149k DOFs on 2 ranks, from
         # rest: 3.93 GB with both in core, mumps_ldlt; 2.74 GB with the state's alone out of
         # core; 1.65 GB with both: docs/PERFORMANCE.md, "Out of core")
-        out_of_core = state.linear == "mumps_ooc"
+        out_of_core = state.newton.linear == "mumps_ooc"
         V = state.V
         u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
         dx = ufl.Measure("dx", domain=V.mesh, metadata={"quadrature_degree":

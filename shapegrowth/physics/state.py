@@ -56,7 +56,6 @@ from .growth import Growth
 from .kinematics import Kinematics
 from .material import MooneyRivlin, deformation_gradient
 from .newton import NewtonSolver
-from .options import SolverOptions
 from .transfer import interpolate_between_meshes
 
 log = logging.getLogger(__name__)
@@ -186,29 +185,6 @@ class StateProblem:
         local = int(np.count_nonzero(~(self._det_F() > 0.0)))  # NaN counts as inverted
         return self.domain.mesh.comm.allreduce(local, MPI.SUM)
 
-    # ---- PETSc: the Newton solver (newton.py) -----------------------------------------------
-    @property
-    def snes(self) -> PETSc.SNES:
-        return self.newton.snes
-
-    @property
-    def options(self) -> SolverOptions:
-        """The state solver's PETSc options (prefix ``state_``)."""
-        return self.newton.options
-
-    @property
-    def linear(self) -> str:
-        """The linear solver's preset, resolved (physics/linear.py)."""
-        return self.newton.linear
-
-    def exact_ksp(self) -> tuple[PETSc.KSP, SolverOptions]:
-        """The exact factorisation a failed solve of another preset falls back to."""
-        return self.newton.exact_ksp()
-
-    def inertia(self) -> int | None:
-        """The negative pivots of the last Newton step's LDL^T (see NewtonSolver.inertia)."""
-        return self.newton.inertia()
-
     def assemble_residual(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
         """R(x) into ``b``, with the Dirichlet rows set to x - g (SNES's residual)."""
         x.ghostUpdate(addv=_INSERT, mode=_FORWARD)
@@ -244,12 +220,12 @@ class StateProblem:
         reduce it is undone.  Returns the residual norm before the first step (the reference
         of Newton's relative tolerance) and the steps kept (collective)."""
         x, b, du = compat.petsc_vec(self.u), self._chord_b, self._chord_du
-        ksp = self.snes.getKSP()
+        ksp = self.newton.snes.getKSP()
         self.assemble_residual(x, b)
         r0 = previous = b.norm()
-        target = max(self._warm_rtol() * r0, self.snes.getTolerances()[1])
+        target = max(self._warm_rtol() * r0, self.newton.snes.getTolerances()[1])
         kept = 0
-        with self.options.pushed():
+        with self.newton.options.pushed():
             for _ in range(self.cfg.solver.chord_steps):
                 if previous <= target:
                     break
