@@ -167,6 +167,18 @@ SCENES = [
           ("growth.start=run", "growth.from_run={out}/cube_cylinder_fixed_uniform",
            "growth.angles.initial=[0.0, 0.0, 0.0]"), group="cube", twice_limit=_CUBE_TWICE),
 ]
+# what each group of extra measurements is, how to make it, and where its last numbers are:
+# RESULTS.md names the runs of a group not made
+NOT_RUN = {
+    "model": "each scene's other model, measured beside the one tabled above, which wins: "
+             "`make reproduce-models`; their last measured numbers are in docs/TRADEOFFS.md, "
+             "'One page: which model for which body'",
+    "restart": "3D runs restarted from a section's optimum, measurements of the reduced "
+               "models: `scripts/reproduce.py --all`; their last measured numbers are in "
+               "docs/TRADEOFFS.md, 'The reproduction, with the departure'",
+    "cube": "scene 6's 3D cube as the paper ran it: `make reproduce-cube`; its last measured "
+            "numbers are in docs/TRADEOFFS.md, 'The fixed/free ratio, compared fairly'",
+}
 # the 3D cube's pairs, fixed against free, and the start each pair shares
 CUBE_PAIRS = (("cube_cylinder_fixed", "cube_cylinder_free", "from the target's metric"),
               ("cube_cylinder_fixed_uniform", "cube_cylinder_free_staged",
@@ -227,8 +239,8 @@ WHY: dict[int, str] = {
     4: "The section (disk_cone_axi, `--models`) reaches its target, but the 3D disk grown "
        "from rest buckles out of axial symmetry (the section's lift leaves it by about 6 %: "
        "TRADEOFFS, 'The reproduction, with the departure'): an equilibrium the section cannot "
-       "reach, and "
-       "no filter helps (each sends the growth from rest onto another equilibrium); the 3D "
+       "reach, and no filter helps (each sends the growth from rest onto another "
+       "equilibrium); the 3D "
        "run's verified number is several times its self-reported one (TRADEOFFS, 'Reduced "
        "models', 'A second finding', 'Filter lengths and design sets, judged verified')."
        " A second element through the wall makes it worse: ~5.3 % self-reported after the "
@@ -498,21 +510,9 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
             f"{_twice(scene, out / scene.name, s)} | {_pc(s.relative_error)} | "
             f"{s.dofs.state} | {s.dofs.design} | {s.iterations} | {_seconds(s)}{ranks} | "
             f"{s.status} | {scene.paper} |")
-    if "model" in missing:
-        lines += ["", f"Not in this reproduction: {', '.join(missing['model'])} (each scene's "
-                      "other model, measured beside the one tabled above, which wins: "
-                      "`make reproduce-models`; their last measured numbers are in "
-                      "docs/TRADEOFFS.md, 'One page: which model for which body')."]
-    if "restart" in missing:
-        lines += ["", f"Not in this reproduction: {', '.join(missing['restart'])} (3D runs "
-                      "restarted from a section's optimum, measurements of the reduced "
-                      "models: `scripts/reproduce.py --all`; their last measured numbers are "
-                      "in docs/TRADEOFFS.md, 'The reproduction, with the departure')."]
-    if "cube" in missing:
-        lines += ["", f"Not in this reproduction: {', '.join(missing['cube'])} (scene 6's 3D "
-                      "cube as the paper ran it: `make reproduce-cube`; its last measured "
-                      "numbers are in docs/TRADEOFFS.md, 'The fixed/free ratio, compared "
-                      "fairly')."]
+    for group, why in NOT_RUN.items():
+        if group in missing:
+            lines += ["", f"Not in this reproduction: {', '.join(missing[group])} ({why})."]
     summaries = {scene.name: s for scene, s in rows}
     square_above = None
     fixed, free = summaries.get("square_circle_fixed"), summaries.get("square_circle_free")

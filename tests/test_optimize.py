@@ -412,6 +412,8 @@ def test_reproduce_runs_the_restarts_only_when_asked():
             "cube_cylinder_free_staged"}
     every = {scene.name for scene in reproduce.SCENES}
     assert {scene.name for scene in reproduce.SCENES if scene.extra} == models | restarts | cube
+    # every group of extra measurements is named in RESULTS.md when not made
+    assert {scene.group for scene in reproduce.SCENES if scene.extra} == set(reproduce.NOT_RUN)
     default = reproduce.selected(set(), False)
     assert {scene.name for scene in default} == every - models - restarts - cube
     assert [scene.number for scene in default] == [1, 2, 3, 4, 5, 6, 6]
