@@ -11,6 +11,8 @@ import pytest
 from conftest import CONFIGS, read_json, run_cli
 
 import shapegrowth as sg
+from shapegrowth.optim.lift import verification_model
+from shapegrowth.optim.objective import VERIFY_CLOUD_DEGREE
 from shapegrowth.optim.refined import Verified, branch_changed, likely_cause, refined_config
 from shapegrowth.physics.transfer import interpolate_between_meshes
 
@@ -315,14 +317,29 @@ def test_verify_best_hands_a_levels_winner_to_the_next_level(tmp_path, monkeypat
     assert v is not None and v.relative == 0.3
 
 
-@pytest.mark.parametrize("degree, measured", [(1, 2), (2, 2), (3, 3)])
-def test_the_verification_measures_with_clouds_of_degree_two_at_least(degree, measured):
-    """A run may optimise on cheaper clouds (quadrature degree 1); its verification measures
-    with degree 2 or the run's own where that is higher, so verified numbers compare."""
+@pytest.mark.parametrize("degree, measured", [(1, 6), (4, 6), (6, 6), (7, 7)])
+def test_the_verification_measures_with_clouds_of_degree_six_at_least(degree, measured):
+    """A run may optimise on cheaper clouds (quadrature degree 1 or 2); its verification
+    measures with degree 6 (VERIFY_CLOUD_DEGREE) or the run's own where that is higher, so
+    verified numbers compare; its own clouds and mesh are left as they were."""
     cfg = sg.load_config(SQUARE, [f"objective.hausdorff.quadrature_degree={degree}"])
     fine = refined_config(cfg, 1)
+    assert VERIFY_CLOUD_DEGREE == 6
     assert fine.objective.hausdorff.quadrature_degree == measured
     assert fine.mesh.refine == cfg.mesh.refine + 1
+    assert cfg.objective.hausdorff.quadrature_degree == degree
+
+
+@pytest.mark.parametrize("degree, measured", [(2, 6), (7, 7)])
+def test_a_lift_measures_with_the_verification_clouds(degree, measured):
+    """A section's lift is measured on the 3D config's verification model with the same
+    clouds as a 3D run's own verification, whatever the 3D config optimises with."""
+    solid = sg.load_config(CONFIGS / "beam_wave.yaml",
+                           [f"objective.hausdorff.quadrature_degree={degree}"])
+    model = verification_model(solid, 2, 2)
+    assert model.objective.hausdorff.quadrature_degree == measured
+    assert model.growth.degree == 2
+    assert model.mesh.refine == solid.mesh.refine + solid.optimizer.levels[-1] + 2
 
 
 def test_the_check_of_a_verification_is_a_third_of_the_way_to_one_percent():

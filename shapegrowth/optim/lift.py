@@ -35,7 +35,7 @@ from ..physics.model import ForwardModel
 from ..physics.paths import solve_watched
 from ..physics.stability import Stability
 from ..physics.transfer import interpolate_between_meshes
-from .objective import Objective
+from .objective import Objective, verification_clouds
 
 log = logging.getLogger(__name__)
 
@@ -108,13 +108,15 @@ def verification_model(solid_cfg: Config, refine: int | None = None,
     ``verify.refine`` more times (or ``refine``, the reduced config's ``verify.lift_refine``),
     where a 3D run of it measures its verified error; a lift is measured there, so the two
     numbers compare.  ``degree`` (the reduced config's ``verify.lift_degree``): the growth's
-    degree there, where not the 3D config's own."""
+    degree there, where not the 3D config's own.  Its clouds are the verification's
+    (VERIFY_CLOUD_DEGREE at least), as a 3D run's own verification measures with."""
     extra = solid_cfg.optimizer.levels[-1] + (solid_cfg.verify.refine if refine is None
                                               else refine)
     growth = solid_cfg.growth if degree is None else dataclasses.replace(solid_cfg.growth,
                                                                          degree=degree)
-    return dataclasses.replace(solid_cfg, growth=growth, mesh=dataclasses.replace(
-        solid_cfg.mesh, refine=solid_cfg.mesh.refine + extra))
+    return dataclasses.replace(verification_clouds(solid_cfg), growth=growth,
+                               mesh=dataclasses.replace(solid_cfg.mesh,
+                                                        refine=solid_cfg.mesh.refine + extra))
 
 
 def lift(model: ForwardModel, solid_cfg: Config) -> Lifted:

@@ -31,7 +31,7 @@ from ..physics.stability import Stability
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
 from .lift import Lifted
-from .objective import Objective
+from .objective import Objective, verification_clouds
 
 log = logging.getLogger(__name__)
 
@@ -151,19 +151,10 @@ class Reverified:
                 "moved": self.moved, "allowed": self.allowed, "settled": self.settled}
 
 
-# The verification measures with clouds of at least this quadrature degree, whatever the
-# run optimised with (objective.hausdorff.quadrature_degree 1 is cheaper to optimise with:
-# docs/PERFORMANCE.md), so that verified numbers stay comparable from run to run.
-VERIFY_CLOUD_DEGREE = 2
-
-
 def refined_config(cfg: Config, refine: int) -> Config:
     """``cfg`` on its mesh refined ``refine`` more times (nested in the run's mesh), its
-    clouds of quadrature degree VERIFY_CLOUD_DEGREE at least."""
-    h = cfg.objective.hausdorff
-    objective = dataclasses.replace(cfg.objective, hausdorff=dataclasses.replace(
-        h, quadrature_degree=max(h.quadrature_degree, VERIFY_CLOUD_DEGREE)))
-    return dataclasses.replace(cfg, objective=objective, mesh=dataclasses.replace(
+    clouds of quadrature degree VERIFY_CLOUD_DEGREE at least (the verification's)."""
+    return dataclasses.replace(verification_clouds(cfg), mesh=dataclasses.replace(
         cfg.mesh, refine=cfg.mesh.refine + refine))
 
 
