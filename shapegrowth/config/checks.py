@@ -12,20 +12,18 @@ from .expressions import CONSTANTS, COORDINATES, FUNCTIONS, Expression, Expressi
 from .reduction import SECTIONED, Section, section_of
 from .sections import (
     BOUNDARIES,
-    FACE_ALIASES,
     GEOMETRY_PARAMS,
     PAPER_ANGLE_BOUNDS_2D,
     PAPER_ANGLE_BOUNDS_3D,
     GrowthConfig,
     ModelConfig,
 )
+from .target_checks import OFF_SECTION, check_compare, check_target
 
 if TYPE_CHECKING:
     from .root import Config
 
 
-# the surface files target.surface may name (read by shape/surface_formats.py)
-SURFACE_FORMATS = (".stl", ".obj", ".ply", ".msh")
 # bodies whose mesh can be graded towards their clamp (mesh.clamp_size)
 GRADED = (("box", "x1_min"), ("tube", "x1_min"), ("annulus", "inner_rim"),
           ("cylinder_shell", "bottom_rim"))
@@ -77,7 +75,7 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
             errors.append("mesh.clamp_size: must be smaller than mesh.size (or left out)")
 
     for name in clamped:
-        if section.reduced and name in _OFF_SECTION.get(kind, ()):
+        if section.reduced and name in OFF_SECTION.get(kind, ()):
             errors.append(f"boundary.clamp: '{name}' is not on the section a 2D model of a "
                           f"{kind} keeps; clamp a boundary in the plane, or use model.dim: 3")
 
@@ -118,8 +116,8 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     _check_names(cfg, errors)
     _check_expressions(cfg, growth, errors)
     if cfg.target is not None:
-        _check_target(cfg, errors)
-    _check_compare(cfg, section, errors)
+        check_target(cfg, errors)
+    check_compare(cfg, section, errors)
     if cfg.objective.placement == "fitted" and cfg.boundary.clamped != ("rigid",):
         errors.append("objective.placement: fitted moves a free body (boundary.clamp: rigid) "
                       "onto its best fit; a clamped body stands where its clamp holds it: "
@@ -151,7 +149,6 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
 
 
 # boundaries of a sectioned body that its section does not keep
-_OFF_SECTION = {"box": ("x2_min", "x2_max")}
 # the section of each sectioned body, and its reductions
 _SECTION_REDUCTIONS = {"box": ("plane_strain", "plane_stress"), "annulus": ("axisymmetric",),
                        "cylinder_shell": ("axisymmetric",)}
@@ -339,66 +336,3 @@ def _check_expressions(cfg: Config, growth: GrowthConfig, errors: list[str]) -> 
                     Expression(value, names)
                 except ExpressionError as err:
                     errors.append(f"{key}[{i}]: {err}")
-
-
-def _check_compare(cfg: Config, section: Section, errors: list[str]) -> None:
-    """objective.compare: volume, boundary, or faces of this body; a face is compared with a
-    target map's image of the same face or with a target surface; a section compares the
-    faces it keeps (its edges stand for them)."""
-    names = cfg.objective.compared
-    kind = cfg.geometry.kind
-    faces = cfg.objective.faces(kind)
-    if faces is None:
-        return
-    allowed = (*FACE_ALIASES.get(kind, {}), *BOUNDARIES[kind])
-    wrong = [n for n in names if n not in allowed] if faces else []
-    if not names or wrong or (len(names) > 1 and not set(names).isdisjoint({"volume",
-                                                                             "boundary"})):
-        errors.append(f"objective.compare: {list(names) if len(names) != 1 else names[0]} is "
-                      f"not volume, boundary or faces of a {kind} (faces: {', '.join(allowed)})")
-    elif len(set(faces)) < len(faces):
-        errors.append(f"objective.compare: {list(names)} names a face twice; name each once")
-    off = [n for n in faces if n in _OFF_SECTION.get(kind, ())] if section.reduced else []
-    if off:
-        errors.append(f"objective.compare: '{off[0]}' is not on the section a 2D model of a "
-                      f"{kind} keeps; compare a face in the plane, or use model.dim: 3")
-    if cfg.target is not None and cfg.target.mesh is not None:
-        errors.append("objective.compare: a face is compared with a target.map's image of it "
-                      "or with a target.surface, not with a volume mesh; use compare: volume")
-
-
-def _check_target(cfg: Config, errors: list[str]) -> None:
-    target = cfg.target
-    assert target is not None  # the caller checks
-    given = [key for key in ("map", "mesh", "surface") if getattr(target, key) is not None]
-    if len(given) != 1:
-        errors.append("target: give exactly one of 'map' (expressions), 'mesh' (a volume mesh "
-                      "file) or 'surface' (a closed surface file)"
-                      + (f", not {' and '.join(given)}" if given else ""))
-    if target.map is not None and len(target.map) != cfg.growth_dim:
-        errors.append(f"target.map: give {cfg.growth_dim} components"
-                      + (" (the 3D body's map)" if cfg.section.reduced else ""))
-    if target.mesh is not None and not Path(target.mesh).is_file():
-        errors.append(f"target.mesh: file '{target.mesh}' not found")
-    if target.surface is not None:
-        if not Path(target.surface).is_file():
-            errors.append(f"target.surface: file '{target.surface}' not found")
-        elif Path(target.surface).suffix.lower() not in SURFACE_FORMATS:
-            errors.append(f"target.surface: '{target.surface}' has an unknown format; give "
-                          ".stl, .obj, .ply or .msh")
-        if cfg.dim != 3 and not cfg.section.reduced:
-            errors.append("target.surface: a surface bounds a 3D solid; use model.dim: 3 (a 2D "
-                          "model takes target.map or a 2D target.mesh)")
-    _check_transform(target, errors)
-
-
-def _check_transform(target, errors: list[str]) -> None:
-    t = target.transform
-    if target.map is not None and not t.identity:
-        errors.append("target.transform: places a mesh or surface file; write a map in place")
-    scale = t.scale if isinstance(t.scale, tuple) else (t.scale,)
-    if len(scale) not in (1, 3) or not all(s > 0 for s in scale):
-        errors.append("target.transform.scale: give one positive number or three")
-    for key in ("rotation", "translation"):
-        if len(getattr(t, key)) != 3:
-            errors.append(f"target.transform.{key}: give three numbers (X1, X2, X3)")

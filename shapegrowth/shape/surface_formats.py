@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config import ConfigError
-from ..config.checks import SURFACE_FORMATS
+from ..config.target_checks import SURFACE_FORMATS
 
 KEY = "target.surface"
 
