@@ -78,7 +78,7 @@ def test_one_sweep_gives_the_two_passes_sums(with_gradient):
     against soft_values32 and soft_source_gradient32 with the same coefficients."""
     from scipy.spatial import cKDTree
 
-    from shapegrowth.shape import kernels32
+    from shapegrowth.shape import kernels32, sweep32
     from shapegrowth.shape.cellgrid import SourceGrid
 
     a, b = beams()
@@ -92,7 +92,7 @@ def test_one_sweep_gives_the_two_passes_sums(with_gradient):
     args = (queries, grid.local32, grid.box32, grid.origin, grid.cell, grid.shape, grid.start,
             gmin, radius, alpha, cut, width)
     qscale = b.weights / b.weights.max()
-    Z, V, P, acc = kernels32.soft_values_scatter32(
+    Z, V, P, acc = sweep32.soft_values_scatter32(
         *args[:3], w32, *args[3:], with_gradient, qscale, beta, np.log(top / total), 4)
     Z2, V2, P2 = kernels32.soft_values32(*args[:3], w32, *args[3:], with_gradient, 4)
     assert np.allclose(Z, Z2, rtol=1e-6, atol=0) and np.allclose(P, P2, rtol=1e-5, atol=0)
@@ -109,7 +109,7 @@ def test_balls_over_many_cells_sum_as_float64():
     first hold, so they grow): the float32 sweeps against the float64 loops of kernels.py."""
     from scipy.spatial import cKDTree
 
-    from shapegrowth.shape import kernels, kernels32
+    from shapegrowth.shape import kernels, kernels32, sweep32
     from shapegrowth.shape.cellgrid import SourceGrid
 
     a, b = beams()
@@ -123,7 +123,7 @@ def test_balls_over_many_cells_sum_as_float64():
     w32 = grid.weights.astype(np.float32)
     Z1, V1, P1 = kernels32.soft_values32(queries, grid.local32, grid.box32, w32, *args, True, 4)
     ones = np.ones(len(queries))
-    Z2, V2, P2, _ = kernels32.soft_values_scatter32(queries, grid.local32, grid.box32, w32,
+    Z2, V2, P2, _ = sweep32.soft_values_scatter32(queries, grid.local32, grid.box32, w32,
                                                      *args, True, ones, 2.0, 0.0, 4)
     for z, v in ((Z1, V1), (Z2, V2)):
         assert np.allclose(z, Z, rtol=1e-5, atol=0)

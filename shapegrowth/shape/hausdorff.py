@@ -28,7 +28,7 @@ import numpy as np
 from mpi4py import MPI
 from scipy.spatial import cKDTree
 
-from . import cellgrid, kernels, kernels32
+from . import cellgrid, kernels, kernels32, sweep32
 
 
 def _kdtree_workers() -> int:
@@ -122,7 +122,7 @@ class _Direction:
     s_total: float  # total weight of the sources
     farthest: float  # largest nearest-source distance of a query (all ranks)
     # the source gradient's pair sums (grid order, as soft_source_gradient's), where the
-    # values' sweep made them (kernels32.soft_values_scatter32)
+    # values' sweep made them (sweep32.soft_values_scatter32)
     scattered: np.ndarray | None = None
 
 
@@ -243,7 +243,7 @@ class SmoothHausdorff:
         if fused:
             top = float(grid.weights.max(initial=0.0)) or 1.0
             q_top = float(q_weights.max(initial=0.0)) or 1.0
-            Z[order], V[order], P[order], scattered = kernels32.soft_values_scatter32(
+            Z[order], V[order], P[order], scattered = sweep32.soft_values_scatter32(
                 ordered, grid.local32, grid.box32, (grid.weights / top).astype(np.float32),
                 grid.origin, grid.cell, grid.shape, grid.start, gmin[order], radius[order],
                 self.alpha, *self._cut, query_gradient, q_weights[order] / q_top, self.beta,
