@@ -12,7 +12,7 @@ from conftest import CONFIGS, read_json, run_cli
 
 import shapegrowth as sg
 from shapegrowth.optim.lift import verification_model
-from shapegrowth.optim.objective import VERIFY_CLOUD_DEGREE
+from shapegrowth.optim.objective import VERIFY_CLOUD_DEGREE, Objective, verification_clouds
 from shapegrowth.optim.refined import Verified, branch_changed, likely_cause, refined_config
 from shapegrowth.physics.transfer import interpolate_between_meshes
 
@@ -321,23 +321,52 @@ def test_verify_best_hands_a_levels_winner_to_the_next_level(tmp_path, monkeypat
 def test_the_verification_measures_with_clouds_of_degree_six_at_least(degree, measured):
     """A run may optimise on cheaper clouds (quadrature degree 1 or 2); its verification
     measures with degree 6 (VERIFY_CLOUD_DEGREE) or the run's own where that is higher, so
-    verified numbers compare; its own clouds and mesh are left as they were."""
+    verified numbers compare.  The refined model itself is the run's (its clouds, and so
+    where det F is checked, unchanged): only the measurement is denser."""
     cfg = sg.load_config(SQUARE, [f"objective.hausdorff.quadrature_degree={degree}"])
-    fine = refined_config(cfg, 1)
     assert VERIFY_CLOUD_DEGREE == 6
-    assert fine.objective.hausdorff.quadrature_degree == measured
+    assert verification_clouds(cfg).objective.hausdorff.quadrature_degree == measured
+    fine = refined_config(cfg, 1)
+    assert fine.objective.hausdorff.quadrature_degree == degree
     assert fine.mesh.refine == cfg.mesh.refine + 1
-    assert cfg.objective.hausdorff.quadrature_degree == degree
 
 
-@pytest.mark.parametrize("degree, measured", [(2, 6), (7, 7)])
-def test_a_lift_measures_with_the_verification_clouds(degree, measured):
-    """A section's lift is measured on the 3D config's verification model with the same
-    clouds as a 3D run's own verification, whatever the 3D config optimises with."""
+def test_the_verification_checks_det_f_where_the_run_does_and_measures_denser(monkeypatch):
+    """verify() solves the run's own model on the refined mesh (det F checked at the run's
+    points) and measures that state with the verification's clouds: the exact distance
+    equals an Objective of degree 6 on the same state."""
+    import shapegrowth.optim.refined as refined
+
+    cfg = sg.load_config(SQUARE, ["objective.hausdorff.quadrature_degree=2"])
+    model = sg.build_model(cfg)
+    model.state.applied.assign(model.growth.values())
+    built: list[sg.Config] = []
+    carried = refined.carried_to
+
+    def watched(source, target_cfg):
+        built.append(target_cfg)
+        return carried(source, target_cfg)
+
+    monkeypatch.setattr(refined, "carried_to", watched)
+    v = refined.verify(model, 1)
+    assert built[0].objective.hausdorff.quadrature_degree == 2  # the run's model
+    fine = carried(model, refined_config(cfg, 1))
+    fine.state.solve()
+    dense = Objective(verification_clouds(cfg), fine.state)
+    assert v.hausdorff == pytest.approx(dense.exact_hausdorff(), rel=1e-9)
+    sparse = Objective(cfg, fine.state).exact_hausdorff()
+    assert v.hausdorff != pytest.approx(sparse, rel=1e-6)
+
+
+@pytest.mark.parametrize("degree", [2, 7])
+def test_a_lift_is_solved_on_the_3d_config_and_measured_with_the_verification_clouds(degree):
+    """A section's lift is solved on the 3D config's verification model (its own clouds)
+    and measured with the verification's, as a 3D run's own verification is."""
     solid = sg.load_config(CONFIGS / "beam_wave.yaml",
                            [f"objective.hausdorff.quadrature_degree={degree}"])
     model = verification_model(solid, 2, 2)
-    assert model.objective.hausdorff.quadrature_degree == measured
+    assert model.objective.hausdorff.quadrature_degree == degree
+    assert verification_clouds(model).objective.hausdorff.quadrature_degree == max(degree, 6)
     assert model.growth.degree == 2
     assert model.mesh.refine == solid.mesh.refine + solid.optimizer.levels[-1] + 2
 

@@ -108,15 +108,14 @@ def verification_model(solid_cfg: Config, refine: int | None = None,
     ``verify.refine`` more times (or ``refine``, the reduced config's ``verify.lift_refine``),
     where a 3D run of it measures its verified error; a lift is measured there, so the two
     numbers compare.  ``degree`` (the reduced config's ``verify.lift_degree``): the growth's
-    degree there, where not the 3D config's own.  Its clouds are the verification's
-    (VERIFY_CLOUD_DEGREE at least), as a 3D run's own verification measures with."""
+    degree there, where not the 3D config's own.  The lift is measured there with the
+    verification's clouds (:func:`lifted_model`), as a 3D run's own verification is."""
     extra = solid_cfg.optimizer.levels[-1] + (solid_cfg.verify.refine if refine is None
                                               else refine)
     growth = solid_cfg.growth if degree is None else dataclasses.replace(solid_cfg.growth,
                                                                          degree=degree)
-    return dataclasses.replace(verification_clouds(solid_cfg), growth=growth,
-                               mesh=dataclasses.replace(solid_cfg.mesh,
-                                                        refine=solid_cfg.mesh.refine + extra))
+    return dataclasses.replace(solid_cfg, growth=growth, mesh=dataclasses.replace(
+        solid_cfg.mesh, refine=solid_cfg.mesh.refine + extra))
 
 
 def lift(model: ForwardModel, solid_cfg: Config) -> Lifted:
@@ -142,7 +141,7 @@ def lifted_model(model: ForwardModel, solid_cfg: Config, compare: bool = True
         log.warning("lift: no equilibrium of the 3D body from rest: %s", report.reason)
         return Lifted(None, None, dofs, time.perf_counter() - tic, f"failed: {report.reason}",
                       solid_cfg.name, stability=stability), solid
-    objective = Objective(solid_cfg, solid.state)
+    objective = Objective(verification_clouds(solid_cfg), solid.state)
     hausdorff = objective.exact_hausdorff()
     size = objective.target_size
     relative = hausdorff / size if size > 0 else math.inf

@@ -152,9 +152,11 @@ class Reverified:
 
 
 def refined_config(cfg: Config, refine: int) -> Config:
-    """``cfg`` on its mesh refined ``refine`` more times (nested in the run's mesh), its
-    clouds of quadrature degree VERIFY_CLOUD_DEGREE at least (the verification's)."""
-    return dataclasses.replace(verification_clouds(cfg), mesh=dataclasses.replace(
+    """``cfg`` on its mesh refined ``refine`` more times (nested in the run's mesh).  The
+    model solved there is the run's own, its clouds included (they set where an
+    equilibrium's det F is checked); :func:`verify` measures it with the verification's
+    clouds (:func:`~shapegrowth.optim.objective.verification_clouds`)."""
+    return dataclasses.replace(cfg, mesh=dataclasses.replace(
         cfg.mesh, refine=cfg.mesh.refine + refine))
 
 
@@ -187,7 +189,7 @@ def verify(model: ForwardModel, refine: int, branch_changed: bool = False) -> Ve
                     report.reason)
         return Verified(None, None, refine, dofs, time.perf_counter() - tic, branch_changed,
                         f"failed: {report.reason}", stability=stability)
-    objective = Objective(cfg, fine.state)
+    objective = Objective(verification_clouds(cfg), fine.state)
     hausdorff = objective.exact_hausdorff()
     relative = hausdorff / objective.target_size if objective.target_size > 0 else math.inf
     return Verified(hausdorff, relative, refine, dofs, time.perf_counter() - tic,
