@@ -147,3 +147,39 @@ def test_a_file_target_compared_as_a_volume_has_no_surface_number(shared_tmp):
     by_mesh = load(CUBE, base + [f"target.mesh={msh}"])
     objective = Objective(by_mesh, ForwardModel.build(by_mesh).state)
     assert objective.surface_hausdorff() is None and objective.surface_relative() is None
+
+
+@pytest.mark.mpi
+def test_scene_5s_clamped_rim_stays_a_wall_from_its_target():
+    """Scene 5 as printed (SCENES.md): the target map sends the shell to the surface of
+    revolution R = X3 + 1, which has no wall and starts at R = 1 on the clamped rim.  The
+    shell's wall is R in [1 - t, 1]: its clamped rim's inner edge (1 - t, 0) stays where it
+    is under any growth, and every target point is t from it at least (R and Z grow
+    together from the target's rim (1, 0)), so no growth comes closer than t: t over the
+    target size, 0.05 / 3.397 = 1.47 %, above the scenes' 1 %.  Measured: the corner does
+    not move under a growth, the target's cloud keeps t from it, and against the same map
+    at X3 = 0 all along (the wall-less cylinder R = 1), the body at rest is exactly t away
+    surface to surface (the bound is the measure's own reading where it is attained)."""
+    base = ["mesh.size=0.025", "mesh.layers=2"]
+    cfg = load(CONFIGS / "cylinder_flare_axi.yaml",
+               [*base, "growth.eigenvalues.initial=[1.15, 1.1, 0.9]"])
+    model = ForwardModel.build(cfg)
+    assert model.state.solve().converged
+    t = cfg.geometry.thickness
+    corner = np.array([1.0 - t, 0.0])
+    V = model.state.V
+    n = V.dofmap.index_map.size_local
+    nodes = V.tabulate_dof_coordinates()[:n, :2]
+    at = np.flatnonzero(np.linalg.norm(nodes - corner, axis=1) < 1e-12)
+    moved = model.state.u.x.array[:2 * n].reshape(n, 2)[at]
+    assert MPI.COMM_WORLD.allreduce(len(at), MPI.SUM) >= 1  # a node sits on the corner
+    assert np.all(np.abs(moved) < 1e-14)
+    objective = Objective(cfg, model.state)
+    assert objective.target_size == pytest.approx(3.4, rel=0.01)  # the flare's top diameter
+    nearest = np.min(np.linalg.norm(objective.target.points[:, :2] - corner, axis=1),
+                     initial=np.inf)
+    assert MPI.COMM_WORLD.allreduce(nearest, MPI.MIN) >= t
+    wall_less = load(CONFIGS / "cylinder_flare_axi.yaml",
+                     [*base, "target.map=[cos(theta), sin(theta), x3]"])
+    objective = Objective(wall_less, ForwardModel.build(wall_less).state)
+    assert objective.surface_hausdorff() == pytest.approx(t, rel=1e-9)
