@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 import time
 from dataclasses import dataclass
 
@@ -35,7 +34,7 @@ from ..physics.model import ForwardModel
 from ..physics.paths import solve_watched
 from ..physics.stability import Stability
 from ..physics.transfer import interpolate_between_meshes
-from .objective import Objective, verification_clouds
+from .objective import measure_verified
 
 log = logging.getLogger(__name__)
 
@@ -141,14 +140,13 @@ def lifted_model(model: ForwardModel, solid_cfg: Config, compare: bool = True
         log.warning("lift: no equilibrium of the 3D body from rest: %s", report.reason)
         return Lifted(None, None, dofs, time.perf_counter() - tic, f"failed: {report.reason}",
                       solid_cfg.name, stability=stability), solid
-    objective = Objective(verification_clouds(solid_cfg), solid.state)
-    hausdorff = objective.exact_hausdorff()
-    size = objective.target_size
-    relative = hausdorff / size if size > 0 else math.inf
+    measured = measure_verified(solid_cfg, solid.state)
+    size = measured.target_size
     leaves = departure(model, solid) if compare else None
-    return Lifted(hausdorff, relative, dofs, time.perf_counter() - tic, "solved",
-                  solid_cfg.name, None if leaves is None or size <= 0 else leaves / size,
-                  stability, objective.surface_relative()), solid
+    return Lifted(measured.hausdorff, measured.relative, dofs, time.perf_counter() - tic,
+                  "solved", solid_cfg.name,
+                  None if leaves is None or size <= 0 else leaves / size, stability,
+                  measured.surface), solid
 
 
 def departure(model: ForwardModel, solid: ForwardModel) -> float | None:

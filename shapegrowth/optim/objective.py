@@ -6,6 +6,7 @@ or, with ``objective.hausdorff.form: paper``, rho_H of (2.9) itself."""
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -49,6 +50,28 @@ def verification_clouds(cfg: Config) -> Config:
         return cfg
     return dataclasses.replace(cfg, objective=dataclasses.replace(
         cfg.objective, hausdorff=dataclasses.replace(h, quadrature_degree=VERIFY_CLOUD_DEGREE)))
+
+
+@dataclass(frozen=True)
+class Measured:
+    """A verified state's numbers: its exact Hausdorff distance to the target, the target's
+    size, the distance over that size, and surface to surface over it (None without one)."""
+
+    hausdorff: float
+    target_size: float
+    relative: float
+    surface: float | None
+
+
+def measure_verified(cfg: Config, state: StateProblem) -> Measured:
+    """``state`` (in equilibrium, solved from ``cfg``) measured as a verified number is:
+    with the verification's clouds (:func:`verification_clouds`), the one place a
+    verification and a lift both measure through (collective)."""
+    objective = Objective(verification_clouds(cfg), state)
+    hausdorff = objective.exact_hausdorff()
+    size = objective.target_size
+    return Measured(hausdorff, size, hausdorff / size if size > 0 else math.inf,
+                    objective.surface_relative())
 
 
 LATTICE = 4  # a face's facets in 4^2 flat triangles (2 x 4^2 on a hexahedron's quadrilaterals,

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 import time
 from dataclasses import dataclass
 
@@ -31,7 +30,7 @@ from ..physics.stability import Stability
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
 from .lift import Lifted
-from .objective import Objective, verification_clouds
+from .objective import measure_verified
 
 log = logging.getLogger(__name__)
 
@@ -189,12 +188,10 @@ def verify(model: ForwardModel, refine: int, branch_changed: bool = False) -> Ve
                     report.reason)
         return Verified(None, None, refine, dofs, time.perf_counter() - tic, branch_changed,
                         f"failed: {report.reason}", stability=stability)
-    objective = Objective(verification_clouds(cfg), fine.state)
-    hausdorff = objective.exact_hausdorff()
-    relative = hausdorff / objective.target_size if objective.target_size > 0 else math.inf
-    return Verified(hausdorff, relative, refine, dofs, time.perf_counter() - tic,
-                    branch_changed, "solved", stability=stability,
-                    surface=objective.surface_relative())
+    measured = measure_verified(cfg, fine.state)
+    return Verified(measured.hausdorff, measured.relative, refine, dofs,
+                    time.perf_counter() - tic, branch_changed, "solved", stability=stability,
+                    surface=measured.surface)
 
 
 def branch_changed(from_rest: float | None, own: float, target_size: float) -> bool:
