@@ -349,6 +349,36 @@ def evaluate_at_points(u: dolfinx.fem.Function, points: np.ndarray) -> np.ndarra
     return result
 
 
+def evaluate_near(u: dolfinx.fem.Function, points: np.ndarray, inside: np.ndarray
+                  ) -> np.ndarray:
+    """Values of ``u`` at points (n, 3), each on the cell that holds ``inside[i]`` (its
+    polynomial continued a little past the cell where the point lies outside the mesh),
+    gathered on every rank; NaN where ``inside[i]`` is outside the mesh too."""
+    mesh = u.function_space.mesh
+    comm = mesh.comm
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    inside = np.asarray(inside, dtype=np.float64).reshape(-1, 3)
+    value_size = u.function_space.dofmap.index_map_bs
+    if AT_LEAST_0_9:
+        tree = dolfinx.geometry.bb_tree(mesh, mesh.topology.dim)
+        candidates = dolfinx.geometry.compute_collisions_points(tree, inside)
+    else:
+        tree = dolfinx.geometry.BoundingBoxTree(mesh, mesh.topology.dim)
+        candidates = dolfinx.geometry.compute_collisions(tree, inside)
+    colliding = dolfinx.geometry.compute_colliding_cells(mesh, candidates, inside)
+    local = np.full((len(points), value_size), np.nan)
+    found = [i for i in range(len(points)) if len(colliding.links(i))]
+    if found:
+        cells = np.array([colliding.links(i)[0] for i in found], dtype=np.int32)
+        local[found] = u.eval(points[found], cells).reshape(len(found), value_size)
+    gathered = comm.allgather(local)
+    result = np.full_like(local, np.nan)
+    for values in gathered:
+        fill = np.isnan(result[:, 0]) & ~np.isnan(values[:, 0])
+        result[fill] = values[fill]
+    return result
+
+
 def write_xdmf(path: Path, mesh, functions: list[dolfinx.fem.Function]) -> None:
     """One XDMF file (+ .h5) with the mesh and P1 functions, readable by ParaView."""
     path.parent.mkdir(parents=True, exist_ok=True)

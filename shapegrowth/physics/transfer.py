@@ -3,7 +3,8 @@
 A scalar field on one mesh is interpolated at the DOF coordinates of a space on
 another mesh of the same body.  Points that fall outside the source mesh (the
 fine mesh of a curved boundary sticks out of the coarse polygon by O(h^2)) take
-the value of the nearest point that fell inside.
+the polynomial of the first source cell met on the way to the nearest point
+inside, continued to them (the value of that point where none is met).
 """
 
 from __future__ import annotations
@@ -45,6 +46,20 @@ def interpolate_between_meshes(source: dolfinx.fem.Function, target: dolfinx.fem
         raise ValueError("the two meshes do not overlap")
     if missing.any():
         found = np.flatnonzero(~missing)
-        nearest = cKDTree(points[found]).query(points[missing])[1]
-        values[missing] = values[found[nearest]]
+        lost = np.flatnonzero(missing)
+        nearest = found[cKDTree(points[found]).query(points[lost])[1]]
+        # A node of the finer mesh of a curved boundary lies outside the coarse polygon by
+        # O(h^2), and the nearest node inside can be a wall's thickness away (the tube at
+        # h 0.5: its outer nodes took the inner wall's growth, and its exact growth
+        # verified at 3.01 % where its own mesh read 0.15 %).  The field is continued from
+        # the cell found on the way to that node, the first of these steps inside.
+        for step in (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9):
+            got = compat.evaluate_near(source, points[lost],
+                                       points[lost] + step * (points[nearest] - points[lost]))
+            ok = ~np.isnan(got[:, 0])
+            values[lost[ok]] = got[ok]
+            lost, nearest = lost[~ok], nearest[~ok]
+            if not len(lost):
+                break
+        values[lost] = values[nearest]
     target.x.array[:] = values[offset:offset + len(coords)].reshape(-1)
