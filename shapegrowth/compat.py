@@ -325,41 +325,21 @@ def evaluate_at_points(u: dolfinx.fem.Function, points: np.ndarray) -> np.ndarra
     A point found on several ranks (on a partition boundary) is taken from the
     lowest rank; a point outside the mesh gives NaN.
     """
-    mesh = u.function_space.mesh
-    comm = mesh.comm
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    value_size = u.function_space.dofmap.index_map_bs
-    if AT_LEAST_0_9:  # 0.7: bb_tree and compute_collisions_points
-        tree = dolfinx.geometry.bb_tree(mesh, mesh.topology.dim)
-        candidates = dolfinx.geometry.compute_collisions_points(tree, points)
-    else:
-        tree = dolfinx.geometry.BoundingBoxTree(mesh, mesh.topology.dim)
-        candidates = dolfinx.geometry.compute_collisions(tree, points)
-    colliding = dolfinx.geometry.compute_colliding_cells(mesh, candidates, points)
-    local = np.full((len(points), value_size), np.nan)
-    found = [i for i in range(len(points)) if len(colliding.links(i))]
-    if found:
-        cells = np.array([colliding.links(i)[0] for i in found], dtype=np.int32)
-        local[found] = u.eval(points[found], cells).reshape(len(found), value_size)
-    gathered = comm.allgather(local)
-    result = np.full_like(local, np.nan)
-    for values in gathered:
-        fill = np.isnan(result[:, 0]) & ~np.isnan(values[:, 0])
-        result[fill] = values[fill]
-    return result
+    return evaluate_near(u, points, points)
 
 
 def evaluate_near(u: dolfinx.fem.Function, points: np.ndarray, inside: np.ndarray
                   ) -> np.ndarray:
     """Values of ``u`` at points (n, 3), each on the cell that holds ``inside[i]`` (its
     polynomial continued a little past the cell where the point lies outside the mesh),
-    gathered on every rank; NaN where ``inside[i]`` is outside the mesh too."""
+    gathered on every rank (a point found on several ranks taken from the lowest); NaN
+    where ``inside[i]`` is outside the mesh."""
     mesh = u.function_space.mesh
     comm = mesh.comm
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     inside = np.asarray(inside, dtype=np.float64).reshape(-1, 3)
     value_size = u.function_space.dofmap.index_map_bs
-    if AT_LEAST_0_9:
+    if AT_LEAST_0_9:  # 0.7: bb_tree and compute_collisions_points
         tree = dolfinx.geometry.bb_tree(mesh, mesh.topology.dim)
         candidates = dolfinx.geometry.compute_collisions_points(tree, inside)
     else:
