@@ -49,6 +49,9 @@ def test_a_growth_carries_over_exactly_onto_the_nested_mesh(degree):
     assert np.abs(back - values).max() < 1e-12
 
 
+# simplices: gmsh refines them nested, the new nodes on the circle; a hexahedral mesh is
+# regenerated with curved (second-order) cells, on which a linear growth is not in the space
+@pytest.mark.simplex
 @pytest.mark.mpi
 def test_a_growth_carries_onto_a_curved_wall_refined_past_its_polygon():
     """A tube's mesh refined once puts its new outer nodes on the circle, outside the coarse
