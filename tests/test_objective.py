@@ -235,3 +235,65 @@ def test_scene_5s_solid_flare_carries_the_wall_along_the_printed_flares_normal()
                      initial=np.inf)
     assert MPI.COMM_WORLD.allreduce(nearest, MPI.MIN) >= floor * (1 - 1e-9)
     assert floor / objective.target_size == pytest.approx(0.0055, abs=5e-5)  # size ~3.39
+
+
+PRINTED_CONE = '["x1", "x2", "0.625*(r - inner_radius) + x3"]'
+
+
+@pytest.mark.mpi
+def test_scene_4s_solid_cone_carries_the_wall_along_the_printed_cones_normal():
+    """The shipped scene 4 reads the printed cone (a shear of the flat disk, its fibres kept
+    vertical, C_r3 = 5/8) as the solid cone (configs/disk_cone.yaml): the mid-surface on the
+    printed cone, the wall carried along its normal n = (-c e_r + E3) / s undistorted,
+    c = 5/8, s = sqrt(1 + c^2).  In the cylindrical frame its metric is diagonal (the
+    paper's fixed frame can hold it): C_rr = s^2, C_thth = ((r - c X3 / s) / r)^2,
+    C_33 = 1, where the printed map's is not (C_r3 = c).  Its faces lie t/2 (s - 1) / s
+    from the printed faces; the clamped rim's bottom corner (R1, -t/2) stays where it
+    rests, c t / (2 s) outside the solid cone's leaning rim, and every target point is that
+    far from it at least: this reading's floor, 0.22 % of the size."""
+    def target_points(config, X):
+        return mapped_points(config, X.T)[0].T
+
+    cfg = load(CONFIGS / "disk_cone.yaml")
+    printed = load(CONFIGS / "disk_cone.yaml", [f"target.map={PRINTED_CONE}"])
+    t, R1 = cfg.geometry.thickness, cfg.geometry.inner_radius
+    c = 0.625
+    s = np.sqrt(1 + c**2)
+    rng = np.random.default_rng(4)
+    n = 200
+    r = rng.uniform(R1, 1.0, n)
+    theta = rng.uniform(0, 2 * np.pi, n)
+    x3 = rng.uniform(-t / 2, t / 2, n)
+    X = np.stack([r * np.cos(theta), r * np.sin(theta), x3])
+    mid = X.copy()
+    mid[2] = 0.0
+    assert np.allclose(target_points(cfg, mid), target_points(printed, mid), atol=1e-13)
+    frame = np.stack([np.stack([np.cos(theta), np.sin(theta), 0 * theta], axis=1),
+                      np.stack([-np.sin(theta), np.cos(theta), 0 * theta], axis=1),
+                      np.tile([0.0, 0.0, 1.0], (n, 1))], axis=2)  # columns e_r, e_theta, E3
+
+    def in_frame(config):
+        return np.einsum("nki,nkl,nlj->nij", frame, target_metric(config, X), frame)
+
+    Cf = in_frame(cfg)
+    assert np.abs(Cf - np.einsum("nii->ni", Cf)[:, :, None] * np.eye(3)).max() < 1e-7
+    assert np.allclose(Cf[:, 0, 0], s**2, rtol=1e-7)
+    assert np.allclose(Cf[:, 1, 1], ((r - c * x3 / s) / r) ** 2, rtol=1e-7)
+    assert np.allclose(Cf[:, 2, 2], 1.0, rtol=1e-7)
+    assert np.allclose(in_frame(printed)[:, 0, 2], c, rtol=1e-7)  # the printed shear
+    # the top face lies t/2 (s - 1) / s above the printed one (normal to both): the shear
+    # leaves the printed wall t / s thick
+    top = X.copy()
+    top[2] = t / 2
+    normal = np.stack([-c * np.cos(theta), -c * np.sin(theta), np.ones(n)]) / s
+    gap = np.einsum("in,in->n", normal, target_points(cfg, top) - target_points(printed, top))
+    assert np.allclose(gap, t / 2 * (s - 1) / s, rtol=1e-7)
+    # the floor: the fixed bottom corner's distance to the solid cone's cloud (the section's)
+    floor = c * t / (2 * s)
+    section = load(CONFIGS / "disk_cone_axi.yaml", ["mesh.size=0.02", "mesh.layers=2"])
+    objective = Objective(section, ForwardModel.build(section).state)
+    corner = np.array([R1, -t / 2])
+    nearest = np.min(np.linalg.norm(objective.target.points[:, :2] - corner, axis=1),
+                     initial=np.inf)
+    assert MPI.COMM_WORLD.allreduce(nearest, MPI.MIN) >= floor * (1 - 1e-9)
+    assert floor / objective.target_size == pytest.approx(0.00215, abs=5e-5)  # size ~1.97
