@@ -151,6 +151,18 @@ def test_a_file_target_compared_as_a_volume_has_no_surface_number(shared_tmp):
     assert objective.surface_hausdorff() is None and objective.surface_relative() is None
 
 
+def target_points(config, X):
+    """The config's target map at the points ``X`` (3 x n)."""
+    return mapped_points(config, X.T)[0].T
+
+
+def cylindrical_frames(theta):
+    """Per point, the columns e_r, e_theta, E3 at the angles ``theta``."""
+    return np.stack([np.stack([np.cos(theta), np.sin(theta), 0 * theta], axis=1),
+                     np.stack([-np.sin(theta), np.cos(theta), 0 * theta], axis=1),
+                     np.tile([0.0, 0.0, 1.0], (len(theta), 1))], axis=2)
+
+
 PRINTED_FLARE = '["(x3 + 1)*cos(theta)", "(x3 + 1)*sin(theta)", "6 - (7 - 2*(x3 + 1))**2/8 - 23/8"]'
 
 
@@ -201,9 +213,6 @@ def test_scene_5s_solid_flare_carries_the_wall_along_the_printed_flares_normal()
     angle at the rim, atan(2/5) from the axis, from where it rests, and every target point
     is t sin atan(2/5) = 0.0186 from it at least: this reading's floor, 0.55 % of the size,
     below the printed reading's t (1.47 %)."""
-    def target_points(config, X):
-        return mapped_points(config, X.T)[0].T
-
     cfg = load(CONFIGS / "cylinder_flare.yaml")
     printed = load(CONFIGS / "cylinder_flare.yaml", [f"target.map={PRINTED_FLARE}"])
     t = cfg.geometry.thickness
@@ -216,9 +225,7 @@ def test_scene_5s_solid_flare_carries_the_wall_along_the_printed_flares_normal()
     outer = X[:, :50] / r[:50]  # the same points on the outer face
     assert np.allclose(target_points(cfg, outer), target_points(printed, outer), atol=1e-13)
     C = target_metric(cfg, X)
-    frame = np.stack([np.stack([np.cos(theta), np.sin(theta), 0 * theta], axis=1),
-                      np.stack([-np.sin(theta), np.cos(theta), 0 * theta], axis=1),
-                      np.tile([0.0, 0.0, 1.0], (n, 1))], axis=2)  # columns e_r, e_theta, E3
+    frame = cylindrical_frames(theta)
     Cf = np.einsum("nki,nkl,nlj->nij", frame, C, frame)
     assert np.abs(Cf - np.einsum("nii->ni", Cf)[:, :, None] * np.eye(3)).max() < 1e-7
     assert np.allclose(Cf[:, 0, 0], 1.0, atol=1e-7)
@@ -247,16 +254,12 @@ def test_scene_4s_solid_cone_carries_the_wall_along_the_printed_cones_normal():
     """Scene 4's printed cone (configs/disk_cone.yaml: a shear of the flat disk, its fibres
     kept vertical, C_r3 = 5/8) read as the solid cone (docs/TRADEOFFS.md, 'Scene 4: which
     cone'): the mid-surface on the printed cone, the wall carried along its normal
-    n = (-c e_r + E3) / s undistorted,
-    c = 5/8, s = sqrt(1 + c^2).  In the cylindrical frame its metric is diagonal (the
+    n = (-c e_r + E3) / s undistorted, c = 5/8, s = sqrt(1 + c^2).  In the cylindrical frame its metric is diagonal (the
     paper's fixed frame can hold it): C_rr = s^2, C_thth = ((r - c X3 / s) / r)^2,
     C_33 = 1, where the printed map's is not (C_r3 = c).  Its faces lie t/2 (s - 1) / s
     from the printed faces; the clamped rim's bottom corner (R1, -t/2) stays where it
     rests, c t / (2 s) outside the solid cone's leaning rim, and every target point is that
     far from it at least: this reading's floor, 0.22 % of the size."""
-    def target_points(config, X):
-        return mapped_points(config, X.T)[0].T
-
     cfg = load(CONFIGS / "disk_cone.yaml", [f"target.map={SOLID_CONE}"])
     printed = load(CONFIGS / "disk_cone.yaml")
     t, R1 = cfg.geometry.thickness, cfg.geometry.inner_radius
@@ -271,9 +274,7 @@ def test_scene_4s_solid_cone_carries_the_wall_along_the_printed_cones_normal():
     mid = X.copy()
     mid[2] = 0.0
     assert np.allclose(target_points(cfg, mid), target_points(printed, mid), atol=1e-13)
-    frame = np.stack([np.stack([np.cos(theta), np.sin(theta), 0 * theta], axis=1),
-                      np.stack([-np.sin(theta), np.cos(theta), 0 * theta], axis=1),
-                      np.tile([0.0, 0.0, 1.0], (n, 1))], axis=2)  # columns e_r, e_theta, E3
+    frame = cylindrical_frames(theta)
 
     def in_frame(config):
         return np.einsum("nki,nkl,nlj->nij", frame, target_metric(config, X), frame)
