@@ -120,6 +120,7 @@ def test_amdahls_serial_fraction_is_recovered_and_oversubscribed_runs_are_not_fi
     assert table["rows"][1]["speedup_forward"] == pytest.approx(1 / (0.3 + 0.7 / 2))
 
 
+@pytest.mark.slow  # a bench process of its own compiling its forms (17.9 s on a fresh clone)
 def test_a_bench_case_without_equilibrium_is_one_line(tmp_path):
     """A setting under which the bench's growth finds no equilibrium (here: one Newton
     iteration per step, no step cutting; measured the same with `solver.linear: gamg`, whose

@@ -215,6 +215,7 @@ def test_the_free_3d_frame_from_the_target_is_the_same_on_any_number_of_ranks(sh
     assert comm.bcast(gap, root=0) < 1e-8  # on every rank: no rank waits on another
 
 
+@pytest.mark.slow  # two 3D solves from rest (6.2 s)
 def test_the_free_3d_frame_with_a_signed_turn_starts_nearer_than_the_fixed_one(shared_tmp):
     """The cube from its target's metric (h 1): the free frame's in-plane directions turn
     both ways about X3; with t3 in [-pi, pi] the axis stays at +X3 and the start, grown

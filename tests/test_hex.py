@@ -81,7 +81,9 @@ def test_the_wall_has_layers_hexahedra_through_it(shared_tmp):
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("kind", ["box", "tube", "annulus", "rectangle"])
+# slow: the tube (a curved wall as the annulus, 5.7 s on a fresh clone)
+@pytest.mark.parametrize("kind", ["box", pytest.param("tube", marks=pytest.mark.slow),
+                                  "annulus", "rectangle"])
 def test_refinement_regenerates_a_nested_mesh_that_carries_fields_exactly(kind, shared_tmp):
     """mesh.refine: every count doubled (8x the cells, 4x in 2D), every coarse node a node of
     the fine mesh, a coarse Q2 field the same at every coarse node and, on straight bodies,
@@ -121,7 +123,9 @@ def test_bad_cell_kinds_are_refused_with_one_line_naming_the_key():
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("dim", [3, 2])
+# slow: the quadrilaterals (4.9 s on a fresh clone; the plane body on quadrilaterals runs in
+# test_gradients and make test-hex)
+@pytest.mark.parametrize("dim", [3, pytest.param(2, marks=pytest.mark.slow)])
 def test_uniform_growth_is_stress_free_on_hexahedra(dim, shared_tmp):
     lam = 1.3**2
     sets = ["mesh.cells=hex", f"mesh.cache_dir={shared_tmp}",
@@ -206,10 +210,16 @@ TAYLOR = {
                                            "model.reduction=plane_stress"]),
     "axisymmetric": (CONFIGS / "tiny" / "disk_axi.yaml", HEX),
 }
+# the fast tier keeps the 3D body and the axisymmetric section on hexahedra (and
+# test_gradients' free angles on hexahedra); these three compile forms of their own (14, 6.4
+# and 6.7 s on a fresh clone's empty form cache, 0.2-0.8 s once compiled) and run in the
+# slow tier, and make test-hex runs every fast Taylor case on hexahedra
+SLOW_TAYLOR = {"3D free frame", "plane strain, free frame", "X1-X3 section, plane stress"}
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("case", list(TAYLOR))
+@pytest.mark.parametrize("case", [pytest.param(c, marks=[pytest.mark.slow] if c in SLOW_TAYLOR
+                                               else []) for c in TAYLOR])
 def test_taylor_rate_on_hexahedra(case, shared_tmp):
     config, sets = TAYLOR[case]
     sets = sets + [f"mesh.cache_dir={shared_tmp}"]

@@ -308,6 +308,7 @@ def test_verify_best_ends_the_run_on_the_lowest_verified_growth(shared_tmp, monk
     assert resumed.hausdorff_final == pytest.approx(s.hausdorff_final, rel=1e-6)
 
 
+@pytest.mark.slow  # verify.best's other outcome (5.7 s); the fast tier runs the first
 def test_verify_best_keeps_the_optimisers_best_where_it_verifies_lower(tmp_path, monkeypatch):
     """The same run with the optimiser's best verifying lowest: the run is verify.best:
     self's, and a check whose design is the optimiser's best is not verified twice."""
