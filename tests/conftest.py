@@ -82,6 +82,23 @@ def shared_tmp(tmp_path: Path) -> Path:
     return Path(MPI.COMM_WORLD.bcast(str(tmp_path), root=0))
 
 
+@pytest.fixture(scope="session")
+def compiled_kernels() -> None:
+    """numba compiles rho_H's kernels at their first call (20-37 s in a fresh clone, read from
+    its cache after): done once per process here, on clouds of their own, so that a test's
+    time is its own (a module takes it with ``pytestmark = pytest.mark.usefixtures``)."""
+    import numpy as np
+
+    from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
+
+    rng = np.random.default_rng(0)
+    a, b = (PointCloud(rng.random((200, 3)) * [1.0, 0.1, 0.02], np.full(200, 1 / 200))
+            for _ in range(2))
+    for truncate in (False, True):
+        for precision in ("float64", "float32"):
+            SmoothHausdorff(alpha=200.0, truncate=truncate, precision=precision)(a, b)
+
+
 def rank_share(cloud, comm=MPI.COMM_WORLD):
     """This rank's contiguous share of a point cloud that every rank holds whole, with its
     range (lo, hi) in the whole."""

@@ -13,6 +13,7 @@ from shapegrowth.shape.divergence import ShapeDivergence
 from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
 
 RNG = np.random.default_rng(32)
+pytestmark = pytest.mark.usefixtures("compiled_kernels")
 
 
 def beams(n=4000, m=3000, gap=0.01):
@@ -24,17 +25,6 @@ def beams(n=4000, m=3000, gap=0.01):
     return (PointCloud(a, RNG.uniform(0.5, 1.5, n) / n),
             PointCloud(b, RNG.uniform(0.5, 1.5, m) / m))
 
-
-@pytest.fixture(scope="module", autouse=True)
-def _compiled():
-    """numba compiles the kernels at their first call (~20 s in a fresh clone, cached after):
-    done once here, on clouds of their own, so that each test's time is its own."""
-    rng = np.random.default_rng(0)
-    a, b = (PointCloud(rng.random((200, 3)) * [1.0, 0.1, 0.02], np.full(200, 1 / 200))
-            for _ in range(2))
-    for truncate in (False, True):
-        for precision in ("float64", "float32"):
-            SmoothHausdorff(alpha=200.0, truncate=truncate, precision=precision)(a, b)
 
 
 def test_exp32_is_float32_accurate():
