@@ -110,11 +110,11 @@ test-serial-slow:
 # A failure on one rank only can leave the others waiting in a collective: the
 # timeout turns such a hang into a failure.
 test-mpi:
-	@OPENBLAS_NUM_THREADS=1 timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(PYTEST) --color=no -m "mpi and not slow" tests \
+	@OPENBLAS_NUM_THREADS=1 timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(PYTEST) --color=no -m "mpi and not slow and not mpi_slow" tests \
 	  || { tail -n 40 .cache/rank-*.log; exit 1; }
 
 test-mpi-slow:
-	@OPENBLAS_NUM_THREADS=1 timeout 1800 $(MPIRUN) scripts/rank0-output.sh $(PYTEST) --color=no -m "mpi and slow" tests \
+	@OPENBLAS_NUM_THREADS=1 timeout 1800 $(MPIRUN) scripts/rank0-output.sh $(PYTEST) --color=no -m "mpi and (slow or mpi_slow)" tests \
 	  || { tail -n 40 .cache/rank-*.log; exit 1; }
 
 # The notebooks: executed from their jupytext sources (the .ipynb are rewritten with

@@ -59,6 +59,6 @@ print(\"dolfinx\", dolfinx.__version__, \"ufl\", ufl.__version__, \"basix\", bas
   && mypy \
   && python -m pytest -q -p no:cacheprovider -m 'not slow' $TESTS \
   && { mpiexec -n 2 scripts/rank0-output.sh python -m pytest -q -p no:cacheprovider \
-       -m 'mpi and not slow' $TESTS; status=\$?; [ \$status = 0 ] || [ \$status = 5 ]; }"
+       -m 'mpi and not slow and not mpi_slow' $TESTS; status=\$?; [ \$status = 0 ] || [ \$status = 5 ]; }"
 # (pytest's 5: no MPI test among the files asked for)
 echo "test-dolfinx011: passed on dolfinx 0.11 in $(( $(date +%s) - start )) s"

@@ -82,11 +82,12 @@ def shared_tmp(tmp_path: Path) -> Path:
     return Path(MPI.COMM_WORLD.bcast(str(tmp_path), root=0))
 
 
-@pytest.fixture(scope="session")
-def compiled_kernels() -> None:
-    """numba compiles rho_H's kernels at their first call (20-37 s in a fresh clone, read from
-    its cache after): done once per process here, on clouds of their own, so that a test's
-    time is its own (a module takes it with ``pytestmark = pytest.mark.usefixtures``)."""
+def _compile_kernels(precisions: tuple[str, ...]) -> None:
+    """numba compiles rho_H's kernels at their first call (float64's 24 s, float32's 37 s
+    more in a fresh clone, read from its cache after): done on clouds of their own, so that
+    a test's time is its own (a module takes a fixture below with ``pytestmark =
+    pytest.mark.usefixtures``; each compiles what its modules use, no more: a float32
+    compile in a second worker costs its 37 s again)."""
     import numpy as np
 
     from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
@@ -95,8 +96,20 @@ def compiled_kernels() -> None:
     a, b = (PointCloud(rng.random((200, 3)) * [1.0, 0.1, 0.02], np.full(200, 1 / 200))
             for _ in range(2))
     for truncate in (False, True):
-        for precision in ("float64", "float32"):
+        for precision in precisions:
             SmoothHausdorff(alpha=200.0, truncate=truncate, precision=precision)(a, b)
+
+
+@pytest.fixture(scope="session")
+def compiled_kernels() -> None:
+    """rho_H's float64 kernels, compiled (_compile_kernels)."""
+    _compile_kernels(("float64",))
+
+
+@pytest.fixture(scope="session")
+def compiled_kernels32() -> None:
+    """rho_H's float64 and float32 kernels, compiled (_compile_kernels)."""
+    _compile_kernels(("float64", "float32"))
 
 
 def rank_share(cloud, comm=MPI.COMM_WORLD):

@@ -13,7 +13,7 @@ from shapegrowth.shape.divergence import ShapeDivergence
 from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
 
 RNG = np.random.default_rng(32)
-pytestmark = pytest.mark.usefixtures("compiled_kernels")
+pytestmark = pytest.mark.usefixtures("compiled_kernels32")
 
 
 def beams(n=4000, m=3000, gap=0.01):

@@ -99,11 +99,13 @@ MPI_CASES = {"eigenvalues", "eigenvalues+free angles", "2D free frame",
              "axisymmetric, compare the top face"}
 # Slow (make test-all; CI runs it): the free angles' eigen-penalty compiles third
 # derivatives of the energy (20.5 s on CI's empty form cache, 30.5 s here, 2.9 s compiled);
-# and variants of a model the fast tier checks in another case (the plane body in its free
-# frame, the X1-X3 section in plane stress, the 3D free frame; the float32 request checks in
-# float64, test_float32 has float32's own rate), each compiling forms of its own: 4-10 s on
-# a fresh clone, 0.2-5 s once compiled.
+# and variants of a model and design set the fast tier checks in another case (the plane
+# body in its free frame, the X1-X3 section in plane stress, the 3D free frame, faces
+# compared in "compare the top face", hexahedra in test_hex; the float32 request checks in
+# float64, test_float32 has float32's own rate), each compiling forms of its own: 4-16 s on a
+# fresh clone, 0.2-5 s once compiled.
 SLOW_CASES = {"stability penalty, free angles", "2D fixed frame, degree 1, C1",
+              "compare two faces, free angles, hex",
               "X1-X3 section, plane strain", "X1-X3 section, filter, degree 1",
               "2D filter, growth degree 2", "annulus, free frame, float32 sums asked"}
 
@@ -127,6 +129,9 @@ def test_taylor_rate_of_the_reduced_gradient(case, shared_tmp):
     assert report["precision"] == "float64"
 
 
+# slow: two processes (9-11 s); the fast tier's serial-against-two-ranks check is
+# test_state's test_linear_solve_repeats_bit_for_bit_serially_and_to_round_off_on_two_ranks
+@pytest.mark.slow
 def test_serial_and_two_ranks_give_the_same_objective_and_slope(tmp_path):
     from conftest import run_subprocess
 

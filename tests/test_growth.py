@@ -150,6 +150,7 @@ def test_start_from_the_target_clips_to_the_bounds():
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi_slow  # 5.5 s on two ranks; the free frame on two ranks: test_gradients
 def test_start_from_the_target_holds_a_3d_metric_in_the_free_frame(shared_tmp):
     """The free 3D frame from an affine map with a full grad Phi_d (C_d constant, off-
     diagonal in every coordinate pair): three eigenvalues and three Rodrigues angles per

@@ -158,6 +158,7 @@ def _arc_error(h: float, layers: int, cache_dir) -> float:
                      / model.integrate(ufl.dot(arc - X, arc - X)))
 
 
+@pytest.mark.slow  # 7.4-8.8 s; the fast tier's rate-three bend is test_state's, on tetrahedra
 def test_compatible_bending_converges_to_the_arc_at_rate_three_on_hexahedra(tmp_path):
     """Q2, kappa L = pi (a half circle).  Measured 7.4e-2, 6.2e-3 at h = 0.1 (1 layer), 0.05
     (2 layers), rate 3.6 (tetrahedra: 1.0e-1, 9.1e-3)."""
@@ -231,6 +232,8 @@ def test_taylor_rate_on_hexahedra(case, shared_tmp):
 
 
 @pytest.mark.mpi
+# slow (13-14 s serially, 14 s on two ranks); make test-hex runs every fast run on hexahedra
+@pytest.mark.slow
 def test_a_run_on_hexahedra_writes_its_fields_and_figures(shared_tmp):
     """Two iterations and the verification on the regenerated mesh: fields.xdmf holds Q2
     values at the 27 nodes of every cell, the pictures are drawn."""

@@ -97,6 +97,7 @@ def test_taylor_rate_with_each_preset(config, preset, shared_tmp):
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi_slow  # 6 s on two ranks; the fast tier's fall-back on two ranks: the adjoint's
 def test_a_failed_state_solve_falls_back_to_lu_and_is_counted(shared_tmp, capsys):
     """GAMG allowed two Krylov iterations cannot solve the thin beam's Newton steps: each
     failed solve is said in one line with PETSc's reason, done again with MUMPS LU from the

@@ -266,6 +266,7 @@ def test_a_bar_clamped_at_both_ends_grows_mirror_symmetric(shared_tmp):
 
 
 @pytest.mark.mpi
+@pytest.mark.slow  # 6-11 s; an opt-in preset (solver.linear: gamg), as test_linear's multigrid
 def test_gamg_gives_the_mumps_solution(shared_tmp):
     """GMRES + GAMG with the rigid-body near-nullspace reaches the same state on a chunky
     body (a stretched, sheared cube).  On the thin P2 beam GAMG needs 250-1100 GMRES

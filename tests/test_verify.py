@@ -272,6 +272,9 @@ def _scripted_verify(monkeypatch, relatives):
 
 
 @pytest.mark.mpi
+# on two ranks in make test-all (11 s); the fast tier's two ranks verify a run in
+# test_verify_checks_a_run_on_its_mesh_refined_once_more
+@pytest.mark.mpi_slow
 def test_verify_best_ends_the_run_on_the_lowest_verified_growth(shared_tmp, monkeypatch):
     """verify.best: verified, checks at iterations 1 and 3 (verified 20 % and 50 %,
     scripted): the optimiser's best (iteration 3, by its own number; not verified again)
