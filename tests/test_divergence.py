@@ -14,7 +14,6 @@ from shapegrowth.shape.divergence import ShapeDivergence
 from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
 
 RNG = np.random.default_rng(7)
-pytestmark = pytest.mark.usefixtures("compiled_kernels")
 
 
 def beam(nx=40, ny=4, nz=2, length=1.0, width=0.1, thickness=0.02) -> PointCloud:

@@ -21,6 +21,7 @@ BEND = CONFIGS / "tiny" / "beam_bend.yaml"
 BEAM = CONFIGS / "tiny" / "beam_wave.yaml"
 
 
+@pytest.mark.slow  # 8.9 s on a fresh clone
 def test_growth_jumping_between_the_bounds_converges(tmp_path):
     """lambda_1 from 0.01 to 12 and lambda_2 from 12 to 0.01 across X1 = 0 within 1e-3."""
     step = "5.995*x1/sqrt(x1**2 + 1e-6)"

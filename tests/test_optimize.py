@@ -305,6 +305,9 @@ def _adjoint_breaks_down_at(monkeypatch, call: int) -> None:
     monkeypatch.setattr(AdjointProblem, "solve", breaks_down)
 
 
+# slow (8.5 s): the fast tier's failed solve ending a run is the state's, above, and the
+# failed adjoint's fall-back is test_linear's
+@pytest.mark.slow
 def test_a_failed_adjoint_solve_ends_the_run_reported(tmp_path, monkeypatch):
     """An iterative adjoint solver that breaks down (seen with GAMG on a thin beam) ends the
     run with its reason and the best design, not with a traceback."""
