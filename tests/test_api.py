@@ -62,7 +62,7 @@ def test_replace_checks_again_and_keeps_a_valid_config_equal():
 
 # ---- PETSc options per solver instance -------------------------------------------------------
 @pytest.mark.mpi
-@pytest.mark.mpi_slow  # 10 s on two ranks
+@pytest.mark.slow  # 12 s on a fresh clone, 10 s on two ranks
 def test_two_models_in_one_process_keep_their_own_options():
     """Two models with different state and filter options: each solver has its own prefix
     and its own settings, and PETSc's option table is left as it was found."""

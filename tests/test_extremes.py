@@ -48,6 +48,7 @@ def test_a_tenth_of_the_thickness_still_bends_onto_the_arc(tmp_path):
     assert math.log2(errors[0] / errors[1]) > 2.5
 
 
+@pytest.mark.slow  # 10 s on a fresh clone
 def test_a_growth_step_that_diverges_is_cut_until_newton_converges():
     """The half-circle bend in one step: Newton diverges, the step is halved three times,
     and continuation reaches the full growth."""

@@ -54,7 +54,9 @@ def test_a_revolved_section_is_the_polygonal_ring():
 
 
 @pytest.mark.mpi
-@pytest.mark.mpi_slow  # 11.4 s on two ranks; a 2D run draws on two ranks in test_optimize
+# slow (9.6 s compiled, 22-25 s on fresh clones; 11.4 s on two ranks): a 2D run draws itself
+# serially and on two ranks in test_optimize
+@pytest.mark.slow
 def test_a_run_draws_itself_in_3d_and_figure_draws_it_again(shared_tmp):
     out = shared_tmp / "run"
     assert run_cli("run", CONFIGS / "tiny" / "beam_wave.yaml", "--out", out, "-q",

@@ -13,9 +13,7 @@ from shapegrowth.shape.divergence import ShapeDivergence
 from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
 
 RNG = np.random.default_rng(32)
-# slow, the whole module: numba compiles the float32 kernels for 34-39 s in a fresh clone;
-# the fast tier checks rho_H's float64 kernels (test_hausdorff, test_divergence)
-pytestmark = [pytest.mark.usefixtures("compiled_kernels32"), pytest.mark.slow]
+pytestmark = pytest.mark.usefixtures("compiled_kernels32")
 
 
 def beams(n=4000, m=3000, gap=0.01):
