@@ -108,10 +108,10 @@ def compiled_kernels() -> None:
 
 
 @pytest.fixture(scope="session")
-def compiled_kernels32() -> None:
+def compiled_kernels32(compiled_kernels: None) -> None:
     """rho_H's float32 kernels too (_compile_kernels; ``pytestmark =
     pytest.mark.usefixtures("compiled_kernels32")``)."""
-    _compile_kernels(("float64", "float32"))
+    _compile_kernels(("float32",))
 
 
 def rank_share(cloud, comm=MPI.COMM_WORLD):

@@ -26,7 +26,6 @@ def beams(n=4000, m=3000, gap=0.01):
             PointCloud(b, RNG.uniform(0.5, 1.5, m) / m))
 
 
-
 def test_exp32_is_float32_accurate():
     """Degree 7 after range reduction: within a few float32 ulps of exp on [-80, 0]."""
     from shapegrowth.shape.kernels32 import exp32_array

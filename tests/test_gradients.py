@@ -102,9 +102,9 @@ MPI_CASES = {"eigenvalues", "eigenvalues+free angles", "2D free frame",
 # and variants of a model and design set the fast tier checks in another case (the plane
 # body in its free frame, plane stress and the X1-X3 section in "X1-X3 section, plane
 # stress", the 3D free frame, the penalty on the 3D beam, faces compared in "compare the top
-# face", hexahedra in test_hex; the float32 request checks in
-# float64, test_float32 has float32's own rate), each compiling forms of its own: 4-16 s on a
-# fresh clone, 0.2-5 s once compiled.
+# face", hexahedra in test_hex; the float32 request checks in float64, test_float32 has
+# float32's own rate), each compiling forms of its own: 4-16 s on a fresh clone, 0.2-5 s
+# once compiled.
 SLOW_CASES = {"stability penalty, free angles", "2D fixed frame, degree 1, C1",
               "compare two faces, free angles, hex", "axisymmetric, stability penalty",
               "2D plane stress",

@@ -125,8 +125,8 @@ def test_bad_cell_kinds_are_refused_with_one_line_naming_the_key():
 
 
 @pytest.mark.mpi
-# slow: the quadrilaterals (4.9 s on a fresh clone; the plane body on quadrilaterals runs in
-# test_gradients and make test-hex)
+# slow: the quadrilaterals (4.9 s on a fresh clone; the fast tier's quadrilaterals are the
+# rectangle's regeneration above, and make test-hex runs every plane body on them)
 @pytest.mark.parametrize("dim", [3, pytest.param(2, marks=pytest.mark.slow)])
 def test_uniform_growth_is_stress_free_on_hexahedra(dim, shared_tmp):
     lam = 1.3**2

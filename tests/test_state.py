@@ -469,9 +469,8 @@ def test_failed_solve_is_reported_and_keeps_the_last_equilibrium(tmp_path):
     assert (tmp_path / "fields.xdmf").exists()
 
 
-# slow: two processes (8.0 s); the fast tier's serial-against-two-ranks checks are
-# test_linear_solve_repeats_bit_for_bit_serially_and_to_round_off_on_two_ranks and
-# test_gradients' test_serial_and_two_ranks_give_the_same_objective_and_slope
+# slow: two processes (8.0 s); the fast tier's serial-against-two-ranks check is
+# test_linear_solve_repeats_bit_for_bit_serially_and_to_round_off_on_two_ranks
 @pytest.mark.slow
 def test_serial_and_two_ranks_give_the_same_probes(tmp_path):
     probes = ["--probe", "1,0,0", "--probe", "0.5,0.05,0.01"]
