@@ -42,6 +42,12 @@ CASES = {
     "X1-X3 section, filter, degree 1": (BEAM, ["model.dim=2", "mesh.size=0.05",
                                                "model.reduction=plane_stress", "model.degree=1",
                                                "growth.filter_length=0.05"]),
+    # growth.across_wall: uniform (P after the filter, physics/walls.py): lambda_2, lambda_3
+    # designed one value across the wall, lambda_1 (not designed) bending it; a start that
+    # varies across the wall (lambda_2's 5 x3) starts at its mean
+    "uniform across the wall": (BEAM, [
+        "growth.across_wall=uniform", "growth.eigenvalues.design=[2,3]",
+        'growth.eigenvalues.initial=["(1 + 0.5*x3)**2", "1 + 0.1*x1 + 5*x3", 1.1]']),
     "axisymmetric": (DISK_AXI, []),
     "axisymmetric, complexity + gradient": (DISK_AXI, ["objective.complexity.kind=C1",
                                                        "objective.complexity.weight=0.1",
@@ -92,7 +98,7 @@ CASES = {
     "axisymmetric free body fitted": (DISK_AXI, ["boundary.clamp=rigid",
                                                  "objective.placement=fitted"]),
 }
-MPI_CASES = {"eigenvalues", "eigenvalues+free angles", "2D free frame",
+MPI_CASES = {"eigenvalues", "eigenvalues+free angles", "2D free frame", "uniform across the wall",
              "X1-X3 section, plane stress", "axisymmetric", "stability penalty",
              "stability penalty, factors out of core",
              "compare the top face", "2D compare the top edge", "free body fitted, top face",

@@ -13,6 +13,7 @@ from .reduction import SECTIONED, Section, section_of
 from .sections import (
     BOUNDARIES,
     GEOMETRY_PARAMS,
+    LAYERED,
     PAPER_ANGLE_BOUNDS_2D,
     PAPER_ANGLE_BOUNDS_3D,
     GrowthConfig,
@@ -290,6 +291,9 @@ def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:
         if g.start == "lifted" and cfg.model.dim != 3:
             errors.append("growth.start: 'lifted' starts a 3D model (model.dim: 3) from a 2D "
                           "section run")
+    if g.across_wall == "uniform" and (cfg.model.dim != 3 or cfg.geometry.kind not in LAYERED):
+        errors.append(f"growth.across_wall: 'uniform' needs a thin-walled 3D body (model.dim: "
+                      f"3, geometry.kind one of {', '.join(LAYERED)}); use 'free' here")
     if g.frame != "free" and ang.initial is not None and any(
             not (isinstance(a, float) and a == 0.0) for a in ang.initial):
         errors.append("growth.angles.initial: angles act only with frame: free")

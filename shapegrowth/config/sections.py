@@ -162,6 +162,12 @@ class GrowthConfig:
     eigenvalues: EigenvaluesConfig = option("eigenvalue fields lambda_i", EigenvaluesConfig())
     angles: AnglesConfig = option("angle fields theta_i (frame: free)", AnglesConfig())
     filter_length: float = option("Helmholtz filter length l (5.7); 0: no filter", 0.0, ge=0)
+    across_wall: str = option(
+        "a thin wall's designed fields: 'free' (a value at every node) or 'uniform' (one value "
+        "across the wall, each column of nodes through it at its mean, after the filter: the "
+        "design stretches the mid-surface and bends the wall only through the fields it does "
+        "not design, such as the target's metric with start: target; docs/TRADEOFFS.md, "
+        "'Scene 4: which cone')", "free", choices=("free", "uniform"))
     degree: int = option("polynomial degree of the growth fields", 1, choices=(1, 2))
     start: str = option(
         "initial growth: 'given' (eigenvalues.initial, angles.initial) or 'target': the target "

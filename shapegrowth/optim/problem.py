@@ -5,8 +5,10 @@ lambda_i listed in ``growth.eigenvalues.design``, then, for ``frame: free``, the
 theta_i), field after field.  One evaluation is the chain rule read forwards,
 the gradient the same chain backwards:
 
-    filter.forward -> C_g -> state solve -> J (rho_H + complexity [+ stability penalty])
-    dJ/dm = filter.backward( dJ/dC_g|_u + adjoint sensitivities )
+    filter.forward [-> P] -> C_g -> state solve -> J (rho_H + complexity [+ stability penalty])
+    dJ/dm = filter.backward( [P] (dJ/dC_g|_u + adjoint sensitivities) )
+
+(P: the mean across a thin wall, growth.across_wall: uniform; physics/walls.py.)
 
 (the stability penalty, optimizer.stability, joins dJ/du and dJ/dC_g|_u:
 stability_penalty.py).
@@ -35,6 +37,7 @@ from ..physics.filters import HelmholtzFilter
 from ..physics.model import ForwardModel
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
+from ..physics.walls import WallMean
 from ..timing import Timer
 from .adjoint import AdjointProblem
 from .objective import Objective, ObjectiveValue
@@ -72,6 +75,14 @@ class ReducedFunctional:
             rho.x.array[:] = field.x.array  # the initial growth is the initial design
         self.filter = HelmholtzFilter(self.space, cfg.growth.filter_length,
                                       cfg.solver.petsc_options, model.state.newton.linear)
+        # growth.across_wall: uniform: P after the filter (physics/walls.py), the design
+        # started in P's range (a start that varies across the wall starts at its mean)
+        self.wall = (WallMean(self.space, cfg.geometry.kind)
+                     if cfg.growth.across_wall == "uniform" else None)
+        if self.wall is not None:
+            for rho in self.design:
+                rho.x.array[:self.n_owned] = self.wall.apply(rho.x.array)
+                rho.x.scatter_forward()
         self.objective = Objective(cfg, model.state)
         self.adjoint = AdjointProblem(model.state)
         self.stability = (StabilityPenalty(model.state, cfg.optimizer.stability)
@@ -101,6 +112,9 @@ class ReducedFunctional:
                 rho.x.array[:self.n_owned] = m[k * self.n_owned:(k + 1) * self.n_owned]
                 rho.x.scatter_forward()
                 self.filter.forward(rho, field)
+                if self.wall is not None:
+                    field.x.array[:self.n_owned] = self.wall.apply(field.x.array)
+                    field.x.scatter_forward()
 
     # ---- J and dJ/dm -----------------------------------------------------------------------
     def evaluate(self, m: np.ndarray, gradient: bool = True) -> Evaluation:
@@ -242,8 +256,12 @@ class ReducedFunctional:
         parts = []
         with self.timer("filter", "filter_backward"):
             for i in self._indices:
+                dual = sens[i]
+                if self.wall is not None:  # P is symmetric: dJ/df P
+                    dual = sens[i].copy()
+                    dual.array[:self.n_owned] = self.wall.apply(sens[i].array)
                 out = sens[i].duplicate()
-                self.filter.backward(sens[i], out)
+                self.filter.backward(dual, out)
                 parts.append(out.array[:self.n_owned].copy())
         return np.concatenate(parts) if parts else np.zeros(0)
 
