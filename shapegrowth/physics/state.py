@@ -260,6 +260,11 @@ class StateProblem:
     # The state's lifecycle: at rest (after construction or ``reset``), in equilibrium with
     # the growth ``target`` held at the last ``solve``; ``snapshot``/``restore`` keep and put
     # back an equilibrium (a run's final check from rest, a resumed run).
+    @property
+    def at_rest(self) -> bool:
+        """Whether the next solve starts from rest (load steps from C_g = I)."""
+        return self._at_rest
+
     def reset(self, step_scale: float = 1.0) -> None:
         """Forget the equilibrium: the next solve starts from rest, its first load step
         ``step_scale`` times ``solver.continuation.initial_step``."""
