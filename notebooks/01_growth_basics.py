@@ -108,8 +108,9 @@ show(surface(strip.state.u), "twist: the growth direction turns through the thic
 # stretching its mid-surface, so a thin one also waves at the rim as the growth increases.
 
 # %%
-disk = solved(CONFIGS / "disk_cone.yaml",
-              "mesh.size=0.2", "mesh.layers=1",
+disk = solved(CONFIGS / "disk_cone.yaml",  # its body; this growth given by hand
+              "mesh.size=0.2", "mesh.layers=1", "growth.start=given", "solver.branch=follow",
+              "solver.max_newton_iterations=15",
               "growth.eigenvalues.initial=['(1 + x3)**2', '(1 + x3)**2', 1.0]")
 cup = surface(disk.state.u)
 show(cup, "cup: the upper face grows more in every direction", elev=15, azim=-60)
