@@ -21,14 +21,16 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import compat
+from ..errors import InputError
 
 # the layered bodies (config LAYERED) and their thin direction
 ACROSS = {"box": "x3", "annulus": "x3", "tube": "radial_x1", "cylinder_shell": "radial_x3"}
 MATCH = 1e-8  # of the body's size: two nodes of one column
 
 
-class WallMeanError(ValueError):
-    """The mesh's nodes do not lie in columns across the wall."""
+class WallMeanError(InputError):
+    """The mesh's nodes do not lie in columns across the wall (the command line reports it
+    in one line, as other bad input)."""
 
 
 def column_keys(kind: str, x: np.ndarray) -> np.ndarray:
@@ -65,7 +67,8 @@ class WallMean:
             lonely = int(np.count_nonzero(counts < 2))
             raise WallMeanError(
                 f"{lonely} of {len(counts)} columns across the wall hold one node: the "
-                "mesh is not layered across its thin direction")
+                "mesh is not layered across its thin direction; growth.across_wall: uniform "
+                "needs mesh.layers, or use 'free'")
 
     def apply(self, values: np.ndarray) -> np.ndarray:
         """Each owned value replaced by its column's mean (collective)."""
