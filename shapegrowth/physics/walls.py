@@ -63,8 +63,8 @@ class WallMean:
         self.counts = counts.astype(float)
         self.columns = len(counts)
         self.n_owned = n
-        if compat.global_size(space) > 0 and counts.min() < 2:
-            lonely = int(np.count_nonzero(counts < 2))
+        lonely = int(np.count_nonzero(counts < 2))
+        if compat.global_size(space) > 0 and lonely:
             raise WallMeanError(
                 f"{lonely} of {len(counts)} columns across the wall hold one node: the "
                 "mesh is not layered across its thin direction; growth.across_wall: uniform "
