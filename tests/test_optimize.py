@@ -4,6 +4,7 @@ outputs, and bad input."""
 from __future__ import annotations
 
 import csv
+import dataclasses
 import os
 import signal
 import subprocess
@@ -457,6 +458,28 @@ def _fake_run(folder: Path, rho_h: float, verified: float, *, config: Path | Non
         summary["config"] = sg.load_config(config).to_dict()
     folder.mkdir(parents=True)
     folder.joinpath("summary.json").write_text(json.dumps(summary))
+
+
+def test_reproduce_says_where_self_reported_and_refined_part(tmp_path):
+    """RESULTS.md's per-scene line: the self-reported number against the run's own mesh
+    refined once, within 1.3x either way or apart by more (where the optimum leans on its
+    mesh, or its clouds over-read it)."""
+    reproduce = _reproduce_module()
+    # _fake_run: self-reported 0.6 x verified (1.67x apart), then refined at 0.8 x self
+    _fake_run(tmp_path / "apart", 0.01, 0.02)
+    apart = reproduce.finished(tmp_path / "apart")
+    assert apart.relative_error == pytest.approx(0.012)
+    assert reproduce._mesh_ratio(apart) == pytest.approx(1 / 0.6)
+    assert reproduce._outside(apart)
+    assert "1.67x, apart by more than 1.3x" in reproduce._agreement(apart)
+    close = dataclasses.replace(
+        apart, verified=dataclasses.replace(apart.verified, relative=0.8 * 0.012 * 1.2))
+    assert not reproduce._outside(close) and "0.96x, within 1.3x" in reproduce._agreement(close)
+    below = dataclasses.replace(
+        apart, verified=dataclasses.replace(apart.verified, relative=0.012 / 1.4))
+    assert reproduce._outside(below)
+    # no self-reported number: nothing said
+    assert reproduce._agreement(dataclasses.replace(apart, hausdorff_final=0.0)) == ""
 
 
 def test_reproduce_tables_the_cube_beside_the_square(tmp_path):
