@@ -465,7 +465,7 @@ def test_reproduce_says_where_self_reported_and_refined_part(tmp_path):
     refined once, within 1.3x either way or apart by more (where the optimum leans on its
     mesh, or its clouds over-read it)."""
     reproduce = _reproduce_module()
-    # _fake_run: self-reported 0.6 x verified (1.67x apart), then refined at 0.8 x self
+    # _fake_run: self-reported 0.6 x verified, so the refined number reads 1 / 0.6 = 1.67x it
     _fake_run(tmp_path / "apart", 0.01, 0.02)
     apart = reproduce.finished(tmp_path / "apart")
     assert apart.relative_error == pytest.approx(0.012)
@@ -473,7 +473,7 @@ def test_reproduce_says_where_self_reported_and_refined_part(tmp_path):
     assert reproduce._outside(apart)
     assert "1.67x, apart by more than 1.3x" in reproduce._agreement(apart)
     close = dataclasses.replace(
-        apart, verified=dataclasses.replace(apart.verified, relative=0.8 * 0.012 * 1.2))
+        apart, verified=dataclasses.replace(apart.verified, relative=0.96 * 0.012))
     assert not reproduce._outside(close) and "0.96x, within 1.3x" in reproduce._agreement(close)
     below = dataclasses.replace(
         apart, verified=dataclasses.replace(apart.verified, relative=0.012 / 1.4))
