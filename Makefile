@@ -35,7 +35,7 @@ help:
 	@echo "make test-dolfinx011 - the fast tier on dolfinx 0.11's pip wheels in that root (root)"
 	@echo "make notebooks - execute the notebooks (writes the .ipynb), then each under mpirun"
 	@echo "make bench  - the performance benchmark (results/bench/bench.json, minutes)"
-	@echo "make reproduce - every paper scene under mpirun on its winning model, then docs/RESULTS.md (40-67 min on 2 cores)"
+	@echo "make reproduce - every paper scene under mpirun on its winning model, then docs/RESULTS.md (33-67 min on 2 cores)"
 	@echo "make reproduce-models - each scene's other model beside it (23 min)"
 	@echo "make reproduce-twice - the reproduction's runs verified on their meshes refined once more"
 	@echo "make reproduce-cube - scene 6 as the paper ran it: the 3D cube, fixed against free frame (14 min)"
@@ -133,8 +133,8 @@ bench: setup
 	$(BIN)/shapegrowth bench
 
 # The paper's scenes under mpirun -n $(NP), each on the model that wins, resumable, then
-# docs/RESULTS.md from the runs (67 min on the last machine's 2 cores, 40-43 on a faster
-# one; an interrupted reproduction continues where it stopped).
+# docs/RESULTS.md from the runs (33 min on the last machine's 2 cores, 67 on one 2x slower;
+# an interrupted reproduction continues where it stopped).
 reproduce: setup
 	$(BIN)/python scripts/reproduce.py --ranks $(NP)
 
