@@ -120,6 +120,11 @@ _FLARE_TWICE = ("787 968 DOFs; the printed flare's optimum, grown from rest ther
 # no arbitrary choice: it contains the fixed frame, so it cannot end worse than it)
 _UNIFORM = ("growth.start=given",
             "growth.eigenvalues.initial=[7.0685834705770345, 7.0685834705770345, 1.0]")
+# The uniform pair runs on to 4000 iterations: after 300 its fixed frame is 9.7-12.1 %
+# verified wherever round-off took its path (four runs), after 4000 6.00-6.35 % (three
+# runs) and still creeping; the pair from the target's metric keeps its 300 (run on, its
+# fixed frame leaves what the body can hold: TRADEOFFS, 'The cube run on: 4000 iterations')
+_RUN_ON = ("optimizer.max_iterations=4000", "optimizer.ftol_rel=1e-6")
 # The cube refined twice: a solid body, not a wall; not measured on this machine
 _CUBE_TWICE = ("not run: x2 is ~370k DOFs of a solid cube (8x the verification's; a solid "
                "block's factor fills most: PERFORMANCE.md, 'The largest solve from rest')")
@@ -161,12 +166,13 @@ SCENES = [
     Scene(6, "cube_cylinder_free", "cube_cylinder_free", "3D cube, free frame (three angles)",
           "rho_H 1/13.9 of the fixed frame's", group="cube", twice_limit=_CUBE_TWICE),
     Scene(6, "cube_cylinder_fixed_uniform", "cube_cylinder_fixed",
-          "3D cube, fixed frame, from the uniform growth", "-", _UNIFORM, group="cube",
-          twice_limit=_CUBE_TWICE),
+          "3D cube, fixed frame, from the uniform growth", "-", (*_UNIFORM, *_RUN_ON),
+          group="cube", twice_limit=_CUBE_TWICE),
     Scene(6, "cube_cylinder_free_staged", "cube_cylinder_free",
           "3D cube, free frame, from the fixed frame's uniform-start optimum at angle 0", "-",
           ("growth.start=run", "growth.from_run={out}/cube_cylinder_fixed_uniform",
-           "growth.angles.initial=[0.0, 0.0, 0.0]"), group="cube", twice_limit=_CUBE_TWICE),
+           "growth.angles.initial=[0.0, 0.0, 0.0]", *_RUN_ON), group="cube",
+          twice_limit=_CUBE_TWICE),
 ]
 # what each group of extra measurements is, how to make it, and where its last numbers are:
 # RESULTS.md names the runs of a group not made
@@ -264,8 +270,15 @@ DISAGREE: dict[int, str] = {
     3: "On its own mesh (16 P2 segments round, one tetrahedron through the wall) the helix's "
        "exact metric reads 0.152 %, on that mesh refined once 0.037 %: the coarse ring is "
        "the error, and the 75 iterations from the exact metric fit it (self-reported down "
-       "to the hundredths) while the refined number rises to about 0.2 %. Both stay a fifth "
-       "of 1 % or less. Optimising on the mesh refined once (231 360 DOFs) would need its own "
+       "to the hundredths) while the refined number rises to about 0.2 %, about the ring's "
+       "own error. Both stay a fifth of 1 % or less. The 1.3x test asks whether an optimum "
+       "leans on its mesh where the target lies beyond the body's reach; this helix is "
+       "within it (its exact growth is in the design set), and there the test reads the "
+       "mesh's rate more than a lean: the exact growth alone, nothing fitted, reads 4.1x "
+       "apart between this mesh and its refinement (P2's rate), and an optimum's own "
+       "number can fall below its mesh's error towards zero while the refined one keeps "
+       "that error. "
+       "Optimising on the mesh refined once (231 360 DOFs) would need its own "
        "check refined once more, about 1.85M DOFs, beyond the largest solve from rest made "
        "here (1 153 920 DOFs, 13.6 GB out of core, 34 min: PERFORMANCE.md); not run "
        "(TRADEOFFS, 'Scene 3: which helix').",

@@ -260,3 +260,43 @@ def test_the_million_dof_benchmark_lands_on_its_arc_when_coarsened(shared_tmp):
     assert summary["hausdorff_final"] / summary["target_size"] < 5e-4
     assert summary["linear_solver"]["preset"] == "mumps_ooc"
     assert summary["stability"]["stable"]
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("preset", ["mumps_ldlt", "mumps"])
+def test_the_analysis_alone_estimates_what_the_factorisation_takes(preset, shared_tmp):
+    """linear.analyse: MUMPS's analysis of the P2 cube's tangent, its factorisation refused,
+    gives the estimates a real factorisation of the same matrix reports, and they bound what
+    it took (the factor's entries and its memory, within 1.5x): what a mesh too large to
+    factor here is measured by (docs/PERFORMANCE.md)."""
+    from petsc4py import PETSc
+
+    from shapegrowth import compat
+    from shapegrowth.physics.model import ForwardModel
+
+    cfg = load(CUBE, [f"mesh.cache_dir={shared_tmp}", "model.degree=2", "mesh.size=0.25"])
+    state = ForwardModel.build(cfg).state
+    A = state.A
+    state.assemble_tangent(compat.petsc_vec(state.u), A)
+    estimate = linear.analyse(A, preset)
+    ksp = PETSc.KSP().create(A.getComm())
+    ksp.setOptionsPrefix("analysed_")
+    table = PETSc.Options()
+    opts = {**linear.preset_options(preset, "state_"), "ksp_type": "preonly"}
+    for key, value in opts.items():
+        table["analysed_" + key] = value
+    ksp.setFromOptions()
+    ksp.setOperators(A)
+    ksp.setUp()
+    F = ksp.getPC().getFactorMatrix()
+    assert F.getMumpsInfog(1) == 0
+    assert linear.factor_estimate(F) == estimate
+    entries, used_mb = F.getMumpsInfog(29), F.getMumpsInfog(22)
+    assert entries <= estimate.entries <= 1.5 * entries
+    assert used_mb <= estimate.mb_in_core[1] <= 1.5 * used_mb + 2  # MB are whole numbers
+    assert estimate.flops > 0 and estimate.mb_out_of_core[1] <= estimate.mb_in_core[1]
+    for key in opts:
+        table.delValue("analysed_" + key)
+    ksp.destroy()
+    with pytest.raises(ValueError, match="direct MUMPS preset"):
+        linear.analyse(A, "gamg")

@@ -310,3 +310,69 @@ def ksp_reason(ksp: PETSc.KSP) -> str:
     reason = reason_of(ksp)
     return f"KSP {KSP_REASONS.get(reason, str(reason))} after {ksp.getIterationNumber()} " \
            "iterations"
+
+
+# MUMPS's factorisation is refused before it allocates anything when its estimated working
+# memory exceeds ICNTL(23) MB per rank (INFO(1) = -19): with a cap of 1 MB only the analysis
+# runs, and its estimates stay to be read
+_REFUSED = -19
+DIRECT_MUMPS = ("mumps", "mumps_ldlt", "mumps_ooc")
+
+
+@dataclass(frozen=True)
+class FactorEstimate:
+    """What MUMPS's analysis says a factorisation of a matrix would need, nothing factored:
+    a mesh too large to factor here measured before it is tried (``benchmarks/
+    linear_factors.py --analyse``; docs/PERFORMANCE.md, 'What a refined-twice check would
+    need')."""
+
+    entries: int                      # the factor's entries (INFOG(3))
+    mb_in_core: tuple[int, int]       # working memory in core: largest rank, all ranks
+    mb_out_of_core: tuple[int, int]   # the same with the factor out of core
+    flops: float                      # the elimination's operations (RINFOG(1))
+    ordering: int                     # the ordering MUMPS chose (INFOG(7))
+
+
+def _entries(infog: int) -> int:
+    """MUMPS's count of entries: a negative one is in millions."""
+    return infog if infog >= 0 else -infog * 1_000_000
+
+
+def factor_estimate(F: PETSc.Mat) -> FactorEstimate:
+    """The analysis's estimates held by MUMPS's factor matrix ``F`` (after an analysis, a
+    factorisation or a refused one)."""
+    return FactorEstimate(_entries(F.getMumpsInfog(3)),
+                          (F.getMumpsInfog(16), F.getMumpsInfog(17)),
+                          (F.getMumpsInfog(26), F.getMumpsInfog(27)),
+                          float(F.getMumpsRinfog(1)), F.getMumpsInfog(7))
+
+
+def analyse(A: PETSc.Mat, name: str = "mumps_ldlt") -> FactorEstimate:
+    """MUMPS's analysis of ``A`` by the direct preset ``name``, its factorisation refused
+    (a working-memory cap of 1 MB): what the factor would take, in the time of an ordering."""
+    if name not in DIRECT_MUMPS:
+        raise ValueError(f"analyse needs a direct MUMPS preset ({', '.join(DIRECT_MUMPS)}), "
+                         f"not {name!r}")
+    prefix = "analyse_"
+    opts = {**preset_options(name, "state_"), "ksp_type": "preonly", "mat_mumps_icntl_23": 1}
+    table = PETSc.Options()
+    ksp = PETSc.KSP().create(A.getComm())
+    try:
+        ksp.setOptionsPrefix(prefix)
+        for key, value in opts.items():
+            table[prefix + key] = value
+        ksp.setFromOptions()
+        ksp.setOperators(A)
+        try:
+            ksp.setUp()
+        except PETSc.Error:  # a PETSc that raises on the refused factorisation
+            pass
+        F = ksp.getPC().getFactorMatrix()
+        if F.getMumpsInfog(1) != _REFUSED:
+            raise RuntimeError(f"MUMPS's analysis ended with INFOG(1) = {F.getMumpsInfog(1)}, "
+                               f"not the refusal ({_REFUSED}) it was asked for")
+        return factor_estimate(F)
+    finally:
+        for key in opts:
+            table.delValue(prefix + key)
+        ksp.destroy()
