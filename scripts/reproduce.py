@@ -102,12 +102,14 @@ def _block(refine: int) -> str:
     """Scene 1's 3D beam refined twice (scene 2's three times) is a block 16 elements thick,
     not a wall: measured (docs/PERFORMANCE.md, 'The largest solve from rest')."""
     return (f"x{refine}: 1 124 739 DOFs, a 3D block 16 P2 elements thick: the in-core LDL^T "
-            "held 20.2-21.0 GB and finished no load step in 15 min, twice (PERFORMANCE.md, "
-            "'The largest solve from rest')")
+            "held 20.2-21.0 GB and finished no load step in 15 min, twice; out of core 2.9 GB "
+            "and 6.5 Tflop a Newton iteration: hours (PERFORMANCE.md, 'The largest solve from "
+            "rest', 'What a refined-twice check would need')")
 
 
-# The largest solve from rest made on this machine (PERFORMANCE.md): beyond it, not run
-_LARGEST = "the largest solve from rest made here: 1 153 920 DOFs, 13.6 GB out of core, 34 min"
+# What a refined-twice check of a 3D body takes here, measured by MUMPS's analysis of its
+# tangent and one check started (PERFORMANCE.md): run only when named
+_NEEDS = "PERFORMANCE.md, 'What a refined-twice check would need'"
 # Scene 5's shell refined twice, measured on the sixth reproduction's optimum (TRADEOFFS,
 # 'The verification, verified'): run only when named
 _FLARE_TWICE = ("787 968 DOFs; the printed flare's optimum, grown from rest there out of "
@@ -125,9 +127,11 @@ _UNIFORM = ("growth.start=given",
 # runs) and still creeping; the pair from the target's metric keeps its 300 (run on, its
 # fixed frame leaves what the body can hold: TRADEOFFS, 'The cube run on: 4000 iterations')
 _RUN_ON = ("optimizer.max_iterations=4000", "optimizer.ftol_rel=1e-6")
-# The cube refined twice: a solid body, not a wall; not measured on this machine
-_CUBE_TWICE = ("not run: x2 is ~370k DOFs of a solid cube (8x the verification's; a solid "
-               "block's factor fills most: PERFORMANCE.md, 'The largest solve from rest')")
+# The cube refined twice: a solid body, not a wall
+_CUBE_TWICE = ("not run: x2 is 352 947 DOFs of a solid cube, a factor of 6.3e8 entries "
+               "(MUMPS's analysis: 9.6 GB in core), 3.4 Tflop a Newton iteration, 1-1.5 min "
+               "on 2 ranks, where the check at x1 took 107: 2-3 h from rest "
+               f"({_NEEDS})")
 SCENES = [
     Scene(1, "beam_wave", "beam_wave", "3D", f"{_SAME} (Figs. 3a, 4)", group="model",
           twice_limit=_block(2)),
@@ -140,9 +144,14 @@ SCENES = [
           # lifted where scene 1's is (verify.lift_refine: 2), so checked once more at x3
           twice_limit=f"lifted {_block(3)}"),
     Scene(3, "tube_helix", "tube_helix", "3D", f"{_SAME} (Fig. 5)",
-          twice_limit=f"not run: x2 is ~1.85M DOFs (8x the verification's; {_LARGEST})"),
+          twice_limit=("not run: x2 is 1 662 336 DOFs, a factor of 2.0e9 entries (MUMPS's "
+                       "analysis: 22.8 GB in core, 3.1 GB out of core), 6.0 Tflop a Newton "
+                       f"iteration, 2-3 min on 2 ranks: hours from rest ({_NEEDS})")),
     Scene(4, "disk_cone", "disk_cone", "3D", f"{_SAME} (Fig. 7)",
-          twice_limit=f"not run: x2 is ~1.1M DOFs (8x the verification's; {_LARGEST})"),
+          twice_limit=("not run to its end: x2 is 1 032 240 DOFs; started out of core, it "
+                       "factored its 1.70e9 entries (12.9 GB on disk) every 2.5-3 min on 2 "
+                       "ranks and finished no load step in 14 min, where the check at x1 "
+                       f"took 74 Newton iterations: 3-4 h ({_NEEDS})")),
     Scene(4, "disk_cone_axi", "disk_cone_axi", "(R, Z) section, axisymmetric", _SAME,
           group="model"),
     Scene(4, "disk_cone_from_axi", "disk_cone", "3D from the section's optimum (40 + 20)",
@@ -279,8 +288,8 @@ DISAGREE: dict[int, str] = {
        "number can fall below its mesh's error towards zero while the refined one keeps "
        "that error. "
        "Optimising on the mesh refined once (231 360 DOFs) would need its own "
-       "check refined once more, about 1.85M DOFs, beyond the largest solve from rest made "
-       "here (1 153 920 DOFs, 13.6 GB out of core, 34 min: PERFORMANCE.md); not run "
+       "check refined once more, 1 662 336 DOFs, at 2-3 min a Newton iteration out of core "
+       "(PERFORMANCE.md, 'What a refined-twice check would need'): hours a check; not run "
        "(TRADEOFFS, 'Scene 3: which helix').",
 }
 
