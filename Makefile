@@ -38,7 +38,7 @@ help:
 	@echo "make reproduce - every paper scene under mpirun on its winning model, then docs/RESULTS.md (33-67 min on 2 cores)"
 	@echo "make reproduce-models - each scene's other model beside it (23 min)"
 	@echo "make reproduce-twice - the reproduction's runs verified on their meshes refined once more"
-	@echo "make reproduce-cube - scene 6 as the paper ran it: the 3D cube, fixed against free frame (14 min)"
+	@echo "make reproduce-cube - scene 6 as the paper ran it: the 3D cube, fixed against free frame (23 min)"
 	@echo "make reproduce-compare OTHER=DIR - results/reproduce against a second reproduction's run folders"
 	@echo "make reachable - targets a known growth produces, found again (docs/REACHABLE.md)"
 	@echo "make setup  - Debian packages and .venv only"
