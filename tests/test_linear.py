@@ -273,6 +273,7 @@ def test_the_analysis_alone_estimates_what_the_factorisation_takes(preset, share
 
     from shapegrowth import compat
     from shapegrowth.physics.model import ForwardModel
+    from shapegrowth.physics.options import SolverOptions
 
     cfg = load(CUBE, [f"mesh.cache_dir={shared_tmp}", "model.degree=2", "mesh.size=0.25"])
     state = ForwardModel.build(cfg).state
@@ -280,14 +281,13 @@ def test_the_analysis_alone_estimates_what_the_factorisation_takes(preset, share
     state.assemble_tangent(compat.petsc_vec(state.u), A)
     estimate = linear.analyse(A, preset)
     ksp = PETSc.KSP().create(A.getComm())
-    ksp.setOptionsPrefix("analysed_")
-    table = PETSc.Options()
-    opts = {**linear.preset_options(preset, "state_"), "ksp_type": "preonly"}
-    for key, value in opts.items():
-        table["analysed_" + key] = value
-    ksp.setFromOptions()
-    ksp.setOperators(A)
-    ksp.setUp()
+    opts = SolverOptions("state_", {**linear.preset_options(preset, "state_"),
+                                    "ksp_type": "preonly"}, prefix="analysed_")
+    ksp.setOptionsPrefix(opts.prefix)
+    with opts.pushed():
+        ksp.setFromOptions()
+        ksp.setOperators(A)
+        ksp.setUp()
     F = ksp.getPC().getFactorMatrix()
     assert F.getMumpsInfog(1) == 0
     assert linear.factor_estimate(F) == estimate
@@ -295,8 +295,6 @@ def test_the_analysis_alone_estimates_what_the_factorisation_takes(preset, share
     assert entries <= estimate.entries <= 1.5 * entries
     assert used_mb <= estimate.mb_in_core[1] <= 1.5 * used_mb + 2  # MB are whole numbers
     assert estimate.flops > 0 and estimate.mb_out_of_core[1] <= estimate.mb_in_core[1]
-    for key in opts:
-        table.delValue("analysed_" + key)
     ksp.destroy()
     with pytest.raises(ValueError, match="direct MUMPS preset"):
         linear.analyse(A, "gamg")

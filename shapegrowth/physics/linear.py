@@ -57,6 +57,7 @@ from typing import Any
 from petsc4py import PETSc
 
 from ..config import ConfigError
+from .options import SolverOptions
 
 log = logging.getLogger(__name__)
 
@@ -353,26 +354,22 @@ def analyse(A: PETSc.Mat, name: str = "mumps_ldlt") -> FactorEstimate:
     if name not in DIRECT_MUMPS:
         raise ValueError(f"analyse needs a direct MUMPS preset ({', '.join(DIRECT_MUMPS)}), "
                          f"not {name!r}")
-    prefix = "analyse_"
-    opts = {**preset_options(name, "state_"), "ksp_type": "preonly", "mat_mumps_icntl_23": 1}
-    table = PETSc.Options()
+    opts = SolverOptions("state_", {**preset_options(name, "state_"), "ksp_type": "preonly",
+                                    "mat_mumps_icntl_23": 1}, prefix="analyse_")
     ksp = PETSc.KSP().create(A.getComm())
     try:
-        ksp.setOptionsPrefix(prefix)
-        for key, value in opts.items():
-            table[prefix + key] = value
-        ksp.setFromOptions()
-        ksp.setOperators(A)
-        try:
-            ksp.setUp()
-        except PETSc.Error:  # a PETSc that raises on the refused factorisation
-            pass
+        ksp.setOptionsPrefix(opts.prefix)
+        with opts.pushed():  # MUMPS reads its options at the factorisation
+            ksp.setFromOptions()
+            ksp.setOperators(A)
+            try:
+                ksp.setUp()
+            except PETSc.Error:  # a PETSc that raises on the refused factorisation
+                pass
         F = ksp.getPC().getFactorMatrix()
         if F.getMumpsInfog(1) != _REFUSED:
             raise RuntimeError(f"MUMPS's analysis ended with INFOG(1) = {F.getMumpsInfog(1)}, "
                                f"not the refusal ({_REFUSED}) it was asked for")
         return factor_estimate(F)
     finally:
-        for key in opts:
-            table.delValue(prefix + key)
         ksp.destroy()
