@@ -27,7 +27,6 @@ import json
 import time
 
 from mpi4py import MPI
-from petsc4py import PETSc
 
 from shapegrowth import compat
 from shapegrowth.config import load
@@ -52,46 +51,34 @@ def main() -> None:
     b.set(1.0)
     comm = MPI.COMM_WORLD
     for name in args.presets.split(","):
+        row: dict[str, object] = {"config": args.config, "refine": args.refine, "preset": name,
+                                  "dofs": A.getSize()[0], "ranks": comm.size}
         if args.analyse:  # the analysis alone (linear.analyse), nothing factored
             tic = time.perf_counter()
             estimate = linear.analyse(A, name)
-            row = {"config": args.config, "refine": args.refine, "preset": name,
-                   "dofs": A.getSize()[0], "ranks": comm.size,
-                   "analysis_s": round(time.perf_counter() - tic, 3),
-                   **dataclasses.asdict(estimate)}
+            row |= {"analysis_s": round(time.perf_counter() - tic, 3),
+                    **dataclasses.asdict(estimate)}
             if comm.rank == 0:
                 print(json.dumps(row), flush=True)
             continue
-        opts = {**linear.preset_options(name, "state_"), "ksp_type": "preonly"}  # the factor
-        ksp = PETSc.KSP().create(comm)
-        ksp.setOptionsPrefix("factors_")
-        table = PETSc.Options()
-        for key, value in opts.items():
-            table["factors_" + key] = value
-        ksp.setFromOptions()
-        ksp.setOperators(A)
-        tic = time.perf_counter()
-        ksp.setUp()
-        factor_s = time.perf_counter() - tic
-        tic = time.perf_counter()
-        ksp.solve(b, x)
-        solve_s = time.perf_counter() - tic
+        with linear.preset_ksp(A, name, "factors_") as ksp:  # the factor
+            tic = time.perf_counter()
+            ksp.setUp()
+            factor_s = time.perf_counter() - tic
+            tic = time.perf_counter()
+            ksp.solve(b, x)
+            solve_s = time.perf_counter() - tic
+            F = ksp.getPC().getFactorMatrix()
+            row |= {"factor_mb": F.getMumpsInfog(22), "factor_entries": F.getMumpsInfog(29),
+                    "compressed_entries": F.getMumpsInfog(35), "ordering": F.getMumpsInfog(7),
+                    "factor_s": round(factor_s, 3), "solve_s": round(solve_s, 4),
+                    "factor_flops": F.getMumpsRinfog(3),
+                    "estimate": dataclasses.asdict(linear.factor_estimate(F))}
         A.mult(x, r)
         r.axpy(-1.0, b)
-        residual = r.norm() / b.norm()
-        F = ksp.getPC().getFactorMatrix()
-        row = {"config": args.config, "refine": args.refine, "preset": name,
-               "dofs": A.getSize()[0], "ranks": comm.size,
-               "factor_mb": F.getMumpsInfog(22), "factor_entries": F.getMumpsInfog(29),
-               "compressed_entries": F.getMumpsInfog(35), "ordering": F.getMumpsInfog(7),
-               "factor_s": round(factor_s, 3), "solve_s": round(solve_s, 4),
-               "relative_residual": residual, "factor_flops": F.getMumpsRinfog(3),
-               "estimate": dataclasses.asdict(linear.factor_estimate(F))}
+        row["relative_residual"] = r.norm() / b.norm()
         if comm.rank == 0:
             print(json.dumps(row), flush=True)
-        for key in opts:
-            table.delValue("factors_" + key)
-        ksp.destroy()
 
 
 if __name__ == "__main__":

@@ -269,32 +269,22 @@ def test_the_analysis_alone_estimates_what_the_factorisation_takes(preset, share
     gives the estimates a real factorisation of the same matrix reports, and they bound what
     it took (the factor's entries and its memory, within 1.5x): what a mesh too large to
     factor here is measured by (docs/PERFORMANCE.md)."""
-    from petsc4py import PETSc
-
     from shapegrowth import compat
     from shapegrowth.physics.model import ForwardModel
-    from shapegrowth.physics.options import SolverOptions
 
     cfg = load(CUBE, [f"mesh.cache_dir={shared_tmp}", "model.degree=2", "mesh.size=0.25"])
     state = ForwardModel.build(cfg).state
     A = state.A
     state.assemble_tangent(compat.petsc_vec(state.u), A)
     estimate = linear.analyse(A, preset)
-    ksp = PETSc.KSP().create(A.getComm())
-    opts = SolverOptions("state_", {**linear.preset_options(preset, "state_"),
-                                    "ksp_type": "preonly"}, prefix="analysed_")
-    ksp.setOptionsPrefix(opts.prefix)
-    with opts.pushed():
-        ksp.setFromOptions()
-        ksp.setOperators(A)
+    with linear.preset_ksp(A, preset, "analysed_") as ksp:
         ksp.setUp()
-    F = ksp.getPC().getFactorMatrix()
-    assert F.getMumpsInfog(1) == 0
-    assert linear.factor_estimate(F) == estimate
-    entries, used_mb = F.getMumpsInfog(29), F.getMumpsInfog(22)
+        F = ksp.getPC().getFactorMatrix()
+        assert F.getMumpsInfog(1) == 0
+        assert linear.factor_estimate(F) == estimate
+        entries, used_mb = F.getMumpsInfog(29), F.getMumpsInfog(22)
     assert entries <= estimate.entries <= 1.5 * entries
     assert used_mb <= estimate.mb_in_core[1] <= 1.5 * used_mb + 2  # MB are whole numbers
     assert estimate.flops > 0 and estimate.mb_out_of_core[1] <= estimate.mb_in_core[1]
-    ksp.destroy()
     with pytest.raises(ValueError, match="direct MUMPS preset"):
         linear.analyse(A, "gamg")

@@ -348,28 +348,38 @@ def factor_estimate(F: PETSc.Mat) -> FactorEstimate:
                           float(F.getMumpsRinfog(1)), F.getMumpsInfog(7))
 
 
+@contextmanager
+def preset_ksp(A: PETSc.Mat, name: str, prefix: str,
+               extra: dict[str, object] | None = None) -> Iterator[PETSc.KSP]:
+    """A KSP of preset ``name`` (with ``extra`` options) on ``A`` under its own options
+    ``prefix``, its options in PETSc's table for the block's time (MUMPS reads them at the
+    factorisation, the block's ``setUp``), destroyed at the block's end."""
+    opts = SolverOptions("state_", {**preset_options(name, "state_"), "ksp_type": "preonly",
+                                    **(extra or {})}, prefix=prefix)
+    ksp = PETSc.KSP().create(A.getComm())
+    try:
+        ksp.setOptionsPrefix(opts.prefix)
+        with opts.pushed():
+            ksp.setFromOptions()
+            ksp.setOperators(A)
+            yield ksp
+    finally:
+        ksp.destroy()
+
+
 def analyse(A: PETSc.Mat, name: str = "mumps_ldlt") -> FactorEstimate:
     """MUMPS's analysis of ``A`` by the direct preset ``name``, its factorisation refused
     (a working-memory cap of 1 MB): what the factor would take, in the time of an ordering."""
     if name not in DIRECT_MUMPS:
         raise ValueError(f"analyse needs a direct MUMPS preset ({', '.join(DIRECT_MUMPS)}), "
                          f"not {name!r}")
-    opts = SolverOptions("state_", {**preset_options(name, "state_"), "ksp_type": "preonly",
-                                    "mat_mumps_icntl_23": 1}, prefix="analyse_")
-    ksp = PETSc.KSP().create(A.getComm())
-    try:
-        ksp.setOptionsPrefix(opts.prefix)
-        with opts.pushed():  # MUMPS reads its options at the factorisation
-            ksp.setFromOptions()
-            ksp.setOperators(A)
-            try:
-                ksp.setUp()
-            except PETSc.Error:  # a PETSc that raises on the refused factorisation
-                pass
+    with preset_ksp(A, name, "analyse_", {"mat_mumps_icntl_23": 1}) as ksp:
+        try:
+            ksp.setUp()
+        except PETSc.Error:  # a PETSc that raises on the refused factorisation
+            pass
         F = ksp.getPC().getFactorMatrix()
         if F.getMumpsInfog(1) != _REFUSED:
             raise RuntimeError(f"MUMPS's analysis ended with INFOG(1) = {F.getMumpsInfog(1)}, "
                                f"not the refusal ({_REFUSED}) it was asked for")
         return factor_estimate(F)
-    finally:
-        ksp.destroy()
