@@ -84,6 +84,10 @@ class Scene:
     group: str = ""
     # why the refined-twice check is not run (a measured limit of this machine), or ""
     twice_limit: str = ""
+    # the refined-twice check grown from rest on the mesh refined once and continued on the
+    # mesh refined twice (`shapegrowth verify --continued`): from rest it is hours here
+    # (PERFORMANCE.md, 'What a refined-twice check would need', 'Continued')
+    twice_continued: bool = False
 
     @property
     def extra(self) -> bool:
@@ -341,8 +345,10 @@ def check_twice(scene: Scene, out: Path, ranks: int, named: bool) -> None:
     path = twice_path(folder, s) if s is not None else None
     if path is None or path.exists() or (scene.twice_limit and not named):
         return
-    print(f"reproduce: {scene.name} verified on its mesh refined once more", flush=True)
-    launch.launch(["verify", folder, "-q"], ranks, env=ONE_BLAS_THREAD, cwd=ROOT)
+    print(f"reproduce: {scene.name} verified on its mesh refined once more"
+          f"{', continued' if scene.twice_continued else ''}", flush=True)
+    launch.launch(["verify", folder, "-q", *(["--continued"] if scene.twice_continued else [])],
+                  ranks, env=ONE_BLAS_THREAD, cwd=ROOT)
 
 
 def read_twice(folder: Path, s: RunSummary) -> Reverified | None:
@@ -366,7 +372,9 @@ def _twice(scene: Scene, folder: Path, s: RunSummary) -> str:
     if check.second_headline is None:
         return f"x{v.refine}, {v.headline_dofs} DOFs: {v.headline_status}"
     verdict = "settled" if check.settled else "**not settled**"
-    return (f"{_pc(check.second_headline)} (x{v.refine}, {v.headline_dofs} DOFs"
+    start = v.headline_continued_from
+    how = "" if start is None else f", continued from x{start}'s equilibrium from rest"
+    return (f"{_pc(check.second_headline)} (x{v.refine}, {v.headline_dofs} DOFs{how}"
             f"{_unstable(v.headline_stability)}): "
             f"moved {100 * (check.moved or 0):.2f} of {100 * (check.allowed or 0):.2f} "
             f"points, {verdict}")

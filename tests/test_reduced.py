@@ -329,6 +329,15 @@ def test_a_section_run_writes_its_growth_and_the_lifted_number_a_3d_run_starts_f
     assert check["verified"]["lifted"]["dofs"] == lifted["dofs"]
     assert check["check"]["second"] == pytest.approx(lifted["relative"], rel=1e-8)
     assert check["check"]["first"] == lifted["relative"] and check["check"]["settled"]
+    # --continued: the 3D body grown from rest one refinement coarser (its mesh without the
+    # run's lift_refine), continued onto the run's lift: the lift's equilibrium from rest
+    assert run_cli("verify", str(out), "--refine", "1", "--continued", "--out",
+                   str(out / "continued"), "-q") == 0
+    on = read_json(out / "continued" / "verify.json")["verified"]
+    assert on["lifted"]["continued_from"] == 0 and on["continued_from"] is None
+    assert on["lifted"]["dofs"] == lifted["dofs"]
+    assert on["lifted"]["relative"] == pytest.approx(lifted["relative"], rel=1e-7)
+    assert on["lifted"]["departure"] == pytest.approx(lifted["departure"], rel=1e-5)
     # --lift none: the section against the section's own verified number
     assert run_cli("verify", str(out), "--refine", "1", "--lift", "none", "--out",
                    str(out / "section"), "-q") == 0

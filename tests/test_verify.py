@@ -454,6 +454,19 @@ def test_verify_checks_a_run_on_its_mesh_refined_once_more(shared_tmp):
     from shapegrowth.io.summary import verified_from_json
 
     assert verified_from_json(v).to_json() == v  # read back whole
+    assert v["continued_from"] is None
+    # --continued: from rest on the mesh refined once, then Newton on the mesh refined twice
+    # from that equilibrium: the same equilibrium as from rest there, in fewer iterations
+    assert run_cli("verify", run, "--continued", "--out", shared_tmp / "on", "-q") == 0
+    on = read_json(shared_tmp / "on" / "verify.json")["verified"]
+    assert on["continued_from"] == 1 and on["status"] == "solved"
+    assert on["dofs"] == v["dofs"]
+    assert on["relative"] == pytest.approx(v["relative"], rel=1e-7)
+    assert on["surface"] == pytest.approx(v["surface"], rel=1e-7)
+    assert on["stability"]["negative"] == v["stability"]["negative"] == 0
+    assert on["stability"]["lowest"][0] == pytest.approx(v["stability"]["lowest"][0], rel=1e-4)
+    log = (shared_tmp / "on" / "progress.log").read_text()
+    assert "continued from its equilibrium from rest on the mesh refined 1 time(s)" in log
 
 
 def test_verify_refuses_a_folder_without_a_run_or_without_a_verification(tmp_path, capsys):

@@ -68,6 +68,10 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("--lift", default=None, metavar="CONFIG_3D",
                        help="a section run: the 3D config to lift onto (default: the run's "
                             "verify.lift; none: the section alone)")
+    check.add_argument("--continued", action="store_true",
+                       help="grow from rest on the mesh refined N - 1 times (a section's 3D "
+                            "body), and solve the finer mesh from that equilibrium: a check "
+                            "at a few Newton iterations where one from rest takes hours")
     fig = sub.add_parser("figure", parents=[options],
                          help="a finished run's deformed body over its target, in 3D "
                               "(shape3d.png)")
@@ -192,7 +196,8 @@ def _lift(cfg, args) -> int:
 def _verify(args) -> int:
     from .verify import reverify
 
-    check = reverify(args.run_dir, args.refine, args.out, args.overrides, args.lift)
+    check = reverify(args.run_dir, args.refine, args.out, args.overrides, args.lift,
+                     args.continued)
     return EXIT_OK if check.second_headline is not None else EXIT_FAILED
 
 

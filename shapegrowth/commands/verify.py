@@ -17,6 +17,14 @@ as the check goes, progress.log (each load step, stamped with the time, even wit
 ``--set`` applies to the run's config (and to the 3D config of a lift), e.g.
 ``solver.linear=mumps_ooc`` for a mesh whose factor does not fit in memory.
 
+``--continued`` makes a check of a mesh too large to grow from rest on (a factorisation of
+a million DOFs or more per Newton iteration, and 74-107 iterations from rest: hours): the
+growth is grown from rest on the mesh refined N - 1 times (for a section, its 3D body's), and
+that equilibrium carried onto the mesh refined N times and solved there at the full growth,
+Newton's few iterations from it, its stability assessed where it ends.  The path from rest,
+and with it the branch, is then the coarser mesh's; the finer mesh measures the
+discretisation.  verify.json says so (``continued_from``), and the log.
+
 A run stopped before its summary.json (in its optimisation, or in its own verification)
 is not verified here but finished: ``shapegrowth run CONFIG --out RUN_DIR --resume`` replays
 its recorded iterations without a solve and goes on from where it stopped.
@@ -33,8 +41,9 @@ from ..errors import InputError
 from ..io import files as io
 from ..io.summary import percent
 from ..logs import progress_file
-from ..optim.lift import lifted_model, verification_model
+from ..optim.lift import Lifted, lifted_from_rest, lifted_model, verification_model
 from ..optim.refined import Reverified, verify
+from ..physics.model import ForwardModel
 from ..physics.stability import describe, unstable_tag
 from .lift import reduced_run, solve_best_growth
 
@@ -59,11 +68,13 @@ def lift_config(cfg: Config, lift_path: str | None, overrides: list[str] | tuple
 
 
 def reverify(run_dir: Path, refine: int | None = None, out: Path | None = None,
-             overrides: list[str] | tuple[str, ...] = (), lift_path: str | None = None
-             ) -> Reverified:
+             overrides: list[str] | tuple[str, ...] = (), lift_path: str | None = None,
+             continued: bool = False) -> Reverified:
     """The run's best growth verified on its last mesh refined ``refine`` times (default:
     once more than the run), beside the run's own verified number, written to ``out``
-    (default RUN_DIR/verify-rN) (collective)."""
+    (default RUN_DIR/verify-rN) (collective).  ``continued``: the model the number is read
+    on (the 3D body of a lift) grown from rest on the mesh refined ``refine`` - 1 times and
+    continued from there (module doc)."""
     cfg, summary, model = reduced_run(run_dir, solve=False, command="verify",
                                       overrides=overrides)
     if summary.verified is None:
@@ -73,15 +84,20 @@ def reverify(run_dir: Path, refine: int | None = None, out: Path | None = None,
     refine = first.refine + 1 if refine is None else refine
     out = run_dir / f"verify-r{refine}" if out is None else out
     solid = lift_config(cfg, lift_path, overrides, refine) if cfg.section.reduced else None
+    how = ("grown from rest" if not continued else
+           f"grown from rest on the mesh refined {refine - 1} time(s) and continued there")
     with progress_file(out / "progress.log", model.comm):  # its load steps, even with -q
-        log.info("verify: %s's best growth on its mesh refined %d time(s), grown from rest%s",
-                 cfg.name, refine, "" if solid is None else
-                 f"; lifted onto {solid.name} (its mesh refined {solid.mesh.refine} time(s))")
-        verified = verify(model, refine)
+        log.info("verify: %s's best growth on its mesh refined %d time(s), %s%s",
+                 cfg.name, refine, how if solid is None else "grown from rest",
+                 "" if solid is None else
+                 f"; lifted onto {solid.name} (its mesh refined {solid.mesh.refine} time(s)), "
+                 + how)
+        # a section is a 2D model: grown from rest at any refinement; its 3D body continued
+        verified = verify(model, refine, continued=continued and solid is None)
         if solid is not None:  # the departure compares the section's own equilibrium (s)
             solved = solve_best_growth(model, run_dir, "verify")
-            verified = dataclasses.replace(
-                verified, lifted=lifted_model(model, solid, compare=solved)[0])
+            lifted = _lift(model, solid, solved, continued, cfg, lift_path, overrides, refine)
+            verified = dataclasses.replace(verified, lifted=lifted)
         # like with like: a lift against the run's lift, the model itself against its own
         if solid is None:
             before = first.relative
@@ -99,18 +115,37 @@ def reverify(run_dir: Path, refine: int | None = None, out: Path | None = None,
     return check
 
 
+def _lift(model: ForwardModel, solid: Config, solved: bool, continued: bool, cfg: Config,
+          lift_path: str | None, overrides: list[str] | tuple[str, ...], refine: int
+          ) -> Lifted:
+    """The lift onto ``solid``: from rest, or ``continued`` from the lift onto the same body's
+    mesh one refinement coarser, grown from rest there."""
+    if not continued:
+        return lifted_model(model, solid, compare=solved)[0]
+    coarse = lift_config(cfg, lift_path, overrides, refine - 1)
+    assert coarse is not None  # solid is not None
+    start, reason = lifted_from_rest(model, coarse, refine - 1)
+    if start is None:
+        return Lifted(None, None, 0, 0.0, f"failed: {reason}", solid.name,
+                      continued_from=refine - 1)
+    return lifted_model(model, solid, compare=solved, start=start)[0]
+
+
 def _report(check: Reverified) -> None:
     v = check.second
     where = (f"lifted to 3D ({v.lifted.config}, {v.lifted.dofs} DOFs)" if v.lifted else
              f"{v.dofs} DOFs")
     if check.second_headline is None:
-        log.warning("verify: no equilibrium from rest on the mesh refined %d time(s): %s",
+        log.warning("verify: no equilibrium on the mesh refined %d time(s): %s",
                     v.refine, v.headline_status)
         return
     tag = unstable_tag(v.headline_stability)
-    log.info("verified on the mesh refined %d time(s): shape error %s (%s, grown from rest, "
+    start = v.headline_continued_from
+    how = "grown from rest" if start is None else \
+        f"continued from its equilibrium from rest on the mesh refined {start} time(s)"
+    log.info("verified on the mesh refined %d time(s): shape error %s (%s, %s, "
              "%.1f s%s; surface to surface %s); the run's own, refined %d time(s): %s",
-             v.refine, percent(check.second_headline), where, v.check_wall_s, tag,
+             v.refine, percent(check.second_headline), where, how, v.check_wall_s, tag,
              percent(v.headline_surface), check.first_refine, percent(check.first))
     if v.lifted is not None:
         log.info("the section itself on the mesh refined %d time(s): %s", v.refine,

@@ -24,6 +24,7 @@ import logging
 import time
 from dataclasses import dataclass
 
+import dolfinx.fem
 import numpy as np
 from mpi4py import MPI
 
@@ -31,7 +32,7 @@ from .. import compat
 from ..config import GEOMETRY_PARAMS, Config, ConfigError
 from ..physics.growth import Growth
 from ..physics.model import ForwardModel
-from ..physics.paths import solve_watched
+from ..physics.paths import equilibrium_from_rest, solve_watched
 from ..physics.stability import Stability
 from ..physics.transfer import interpolate_between_meshes
 from .objective import measure_verified
@@ -54,6 +55,9 @@ class Lifted:
     departure: float | None = None
     stability: Stability | None = None  # of the 3D body's state, its path from rest watched
     surface: float | None = None  # ``relative`` surface to surface (Verified.surface)
+    # ``shapegrowth verify --continued``: the refinement of the check (Verified.refine) whose
+    # 3D equilibrium, grown from rest, this state was continued from; None: from rest here
+    continued_from: int | None = None
 
     def to_json(self) -> dict[str, object]:
         """summary.json's ``verified.lifted`` and lift.json's ``lifted``."""
@@ -123,30 +127,67 @@ def lift(model: ForwardModel, solid_cfg: Config) -> Lifted:
     return lifted_model(model, solid_cfg)[0]
 
 
-def lifted_model(model: ForwardModel, solid_cfg: Config, compare: bool = True
-                 ) -> tuple[Lifted, ForwardModel]:
+def lifted_model(model: ForwardModel, solid_cfg: Config, compare: bool = True,
+                 start: Continued | None = None) -> tuple[Lifted, ForwardModel]:
     """:func:`lift`, and the 3D model it solved; ``compare``: measure the departure from
-    ``model``'s state (False where that state is not an equilibrium)."""
+    ``model``'s state (False where that state is not an equilibrium); ``start``: solve it
+    at the full growth from a coarser mesh's equilibrium of the same body
+    (:func:`lifted_from_rest`), not from rest."""
     check_liftable(model.cfg, solid_cfg)
     tic = time.perf_counter()
-    solid = ForwardModel.build(solid_cfg, model.comm)
-    lift_growth(model.cfg, model.state.applied, solid)
-    # the branch: switch where the reduced run's config or the 3D config asks for it
-    branch = "switch" if "switch" in (model.cfg.solver.branch, solid_cfg.solver.branch) \
-        else "follow"
-    report, stability, _ = solve_watched(solid.state, branch)
+    solid = lifted_at_rest(model, solid_cfg)
+    if start is not None:
+        solid.state.carry(start.displacement)
+    report, stability, _ = solve_watched(solid.state, lift_branch(model.cfg, solid_cfg))
     dofs = compat.global_size(solid.state.V)
+    continued = None if start is None else start.refine
     if not report.converged:
-        log.warning("lift: no equilibrium of the 3D body from rest: %s", report.reason)
+        log.warning("lift: no equilibrium of the 3D body %s: %s",
+                    "from rest" if start is None else "near the coarser one", report.reason)
         return Lifted(None, None, dofs, time.perf_counter() - tic, f"failed: {report.reason}",
-                      solid_cfg.name, stability=stability), solid
+                      solid_cfg.name, stability=stability, continued_from=continued), solid
     measured = measure_verified(solid_cfg, solid.state)
     size = measured.target_size
     leaves = departure(model, solid) if compare else None
     return Lifted(measured.hausdorff, measured.relative, dofs, time.perf_counter() - tic,
                   "solved", solid_cfg.name,
                   None if leaves is None or size <= 0 else leaves / size, stability,
-                  measured.surface), solid
+                  measured.surface, continued), solid
+
+
+def lifted_at_rest(model: ForwardModel, solid_cfg: Config) -> ForwardModel:
+    """The 3D body of ``solid_cfg`` at rest, given the growth of the section ``model``."""
+    solid = ForwardModel.build(solid_cfg, model.comm)
+    lift_growth(model.cfg, model.state.applied, solid)
+    return solid
+
+
+def lift_branch(reduced: Config, solid: Config) -> str:
+    """The branch a lift follows: switch where the reduced run's config or the 3D config asks
+    for it."""
+    return "switch" if "switch" in (reduced.solver.branch, solid.solver.branch) else "follow"
+
+
+@dataclass(frozen=True)
+class Continued:
+    """The start of a check continued onto a finer mesh: the displacement of a coarser
+    mesh's equilibrium, grown from rest there, and the check's refinement it was made at."""
+
+    displacement: dolfinx.fem.Function
+    refine: int
+
+
+def lifted_from_rest(model: ForwardModel, solid_cfg: Config, refine: int
+                     ) -> tuple[Continued | None, str]:
+    """The lift onto ``solid_cfg`` (the check's refinement ``refine``), grown from rest: the
+    start of a lift continued onto that body's finer mesh; None and the reason where no
+    equilibrium was found (collective)."""
+    u, report = equilibrium_from_rest(lambda: lifted_at_rest(model, solid_cfg).state,
+                                      lift_branch(model.cfg, solid_cfg))
+    if u is None:
+        return None, (f"the 3D body from rest on the check's mesh refined {refine} "
+                      f"time(s): {report.reason}")
+    return Continued(u, refine), "solved"
 
 
 def departure(model: ForwardModel, solid: ForwardModel) -> float | None:

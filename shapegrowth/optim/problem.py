@@ -182,7 +182,7 @@ class ReducedFunctional:
             rho.x.array[:source.n_owned] = m[k * source.n_owned:(k + 1) * source.n_owned]
             rho.x.scatter_forward()
             interpolate_between_meshes(rho, mine)
-        self.model.state.carry(source.model.state)
+        self.model.state.carry(source.model.state.u)
         self._forget()
 
     @property

@@ -22,10 +22,12 @@ import logging
 import time
 from dataclasses import dataclass
 
+import dolfinx.fem
+
 from .. import compat
 from ..config import Config
 from ..physics.model import ForwardModel
-from ..physics.paths import solve_watched
+from ..physics.paths import equilibrium_from_rest, solve_watched
 from ..physics.stability import Stability
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
@@ -58,6 +60,10 @@ class Verified:
     # verify.best: verified: the run's iteration of verify.every's check whose growth this is
     # (None: the optimiser's best design, by its own number)
     iteration: int | None = None
+    # ``shapegrowth verify --continued``: the refinement whose equilibrium, grown from rest,
+    # this state was continued from (Newton at the full growth on this mesh); None: grown
+    # from rest here
+    continued_from: int | None = None
 
     @property
     def headline(self) -> float | None:
@@ -85,6 +91,11 @@ class Verified:
     def headline_stability(self) -> Stability | None:
         """The stability of the headline's state."""
         return self.lifted.stability if self.lifted is not None else self.stability
+
+    @property
+    def headline_continued_from(self) -> int | None:
+        """The refinement the headline's state was continued from (None: from rest)."""
+        return self.lifted.continued_from if self.lifted is not None else self.continued_from
 
     @property
     def check_wall_s(self) -> float:
@@ -175,23 +186,41 @@ def carried_to(model: ForwardModel, cfg: Config) -> ForwardModel:
     return other
 
 
-def verify(model: ForwardModel, refine: int, branch_changed: bool = False) -> Verified:
+def verify(model: ForwardModel, refine: int, branch_changed: bool = False,
+           continued: bool = False) -> Verified:
     """The growth ``model`` is in equilibrium with, on its mesh refined ``refine`` times,
-    solved from rest (collective)."""
+    solved from rest (collective).  ``continued``: solved from rest on the mesh refined
+    ``refine`` - 1 times, and that equilibrium carried onto the mesh refined ``refine`` times
+    and solved there at the full growth (``shapegrowth verify --continued``;
+    :func:`~shapegrowth.physics.paths.equilibrium_from_rest`)."""
     tic = time.perf_counter()
     cfg = refined_config(model.cfg, refine)
+    start: dolfinx.fem.Function | None = None
+    coarser = refine - 1 if continued else None
+    if coarser is not None:
+        start, first = equilibrium_from_rest(
+            lambda: carried_to(model, refined_config(model.cfg, coarser)).state,
+            model.cfg.solver.branch)
+        if start is None:
+            return Verified(None, None, refine, 0, time.perf_counter() - tic, branch_changed,
+                            f"failed: from rest on the mesh refined {coarser} time(s): "
+                            f"{first.reason}", continued_from=coarser)
     fine = carried_to(model, cfg)
+    if start is not None:
+        fine.state.carry(start)
+        del start
     report, stability, _ = solve_watched(fine.state, cfg.solver.branch)
     dofs = compat.global_size(fine.state.V)
     if not report.converged:
-        log.warning("verification: no equilibrium from rest on the refined mesh: %s",
-                    report.reason)
+        log.warning("verification: no equilibrium %s on the refined mesh: %s",
+                    "from rest" if coarser is None else "near the coarser one", report.reason)
         return Verified(None, None, refine, dofs, time.perf_counter() - tic, branch_changed,
-                        f"failed: {report.reason}", stability=stability)
+                        f"failed: {report.reason}", stability=stability,
+                        continued_from=coarser)
     measured = measure_verified(cfg, fine.state)
     return Verified(measured.hausdorff, measured.relative, refine, dofs,
                     time.perf_counter() - tic, branch_changed, "solved", stability=stability,
-                    surface=measured.surface)
+                    surface=measured.surface, continued_from=coarser)
 
 
 def branch_changed(from_rest: float | None, own: float, target_size: float) -> bool:

@@ -26,8 +26,11 @@ than the one left (else the path is followed, and tried again at the next step,
 from __future__ import annotations
 
 import dataclasses
+import gc
 import logging
+from collections.abc import Callable
 
+import dolfinx.fem
 import numpy as np
 from petsc4py import PETSc
 
@@ -187,6 +190,30 @@ def solve_watched(state: StateProblem, branch: str = "follow"
     watch = PathWatch(problem, switch=branch == "switch")
     report = state.solve(watch=watch)
     return report, watch.at(report.reached, report.converged), problem
+
+
+def equilibrium_from_rest(build: Callable[[], StateProblem], branch: str = "follow"
+                          ) -> tuple[dolfinx.fem.Function | None, SolveReport]:
+    """The displacement of the state ``build`` makes (a growth at rest), grown from rest
+    with its path watched (:func:`solve_watched`), and the solve's report; None where it
+    found no equilibrium.  Only the displacement is kept: the state's factors are freed
+    before the caller factors another (collective).
+
+    The start of a check continued onto a finer mesh (``shapegrowth verify --continued``):
+    from rest on a mesh refined twice a check takes a factorisation of a million DOFs or
+    more per Newton iteration, and 74-107 of them on the verification's meshes
+    (docs/PERFORMANCE.md, 'What a refined-twice check would need'): hours.  Continued, the
+    path from rest - and with it the branch - is the coarser mesh's, and the finer mesh takes
+    the few Newton iterations from its equilibrium to its own, its stability assessed
+    there."""
+    state = build()
+    log.info("grown from rest on %d DOFs, to be continued on a finer mesh",
+             compat.global_size(state.V))
+    report, _, _ = solve_watched(state, branch)
+    u = state.u if report.converged else None
+    del state
+    gc.collect()  # its factors, before the finer mesh's
+    return u, report
 
 
 def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int = 100,

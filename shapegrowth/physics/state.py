@@ -273,14 +273,14 @@ class StateProblem:
         self._equilibrium = None
         self._first_step_scale = step_scale
 
-    def carry(self, source: StateProblem) -> None:
-        """Start the next solve from ``source``'s displacement on this mesh (a coarser
-        level's equilibrium, exact on a nested refinement): Newton at the full growth from
-        there, no load steps.  Where it does not converge the solve reports so at once (the
-        driver then retries from rest).  Measured on scene 4's section: from rest, the
-        second level's growth found no equilibrium beyond 3.6 % of it (the flat disk's
-        bifurcation), while the first level's optimum is a buckled cone already."""
-        interpolate_between_meshes(source.u, self.u)
+    def carry(self, source: dolfinx.fem.Function) -> None:
+        """Start the next solve from the displacement ``source`` of another mesh of this
+        body (a coarser level's equilibrium, exact on a nested refinement): Newton at the
+        full growth from there, no load steps.  Where it does not converge the solve reports
+        so at once (the driver then retries from rest).  Measured on scene 4's section: from
+        rest, the second level's growth found no equilibrium beyond 3.6 % of it (the flat
+        disk's bifurcation), while the first level's optimum is a buckled cone already."""
+        interpolate_between_meshes(source, self.u)
         self.u.x.scatter_forward()
         self._at_rest = False
         self._equilibrium = None  # solve: a carried guess, not an equilibrium
@@ -317,8 +317,9 @@ class StateProblem:
         else:
             start, scale0, dt = self._equilibrium, 1.0, 1.0
         carried = not self._at_rest and self._equilibrium is None
-        # progress per load step from rest; warm re-solves (optimisation) only in --verbose
-        level = logging.INFO if self._at_rest else logging.DEBUG
+        # progress per load step from rest or from a carried state (a level's first solve, a
+        # continued check); warm re-solves (optimisation) only in --verbose
+        level = logging.INFO if self._at_rest or carried else logging.DEBUG
         t = 0.0
         saved = self.u.x.array.copy()
         previous: tuple[float, np.ndarray] | None = None  # the equilibrium before `saved`
