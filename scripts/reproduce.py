@@ -38,8 +38,11 @@ refined once more than its own verification (``shapegrowth verify RUN``, a secti
 as much more), written to RUN/verify-rN/verify.json and tabled beside the verified number
 as *settled* where it moved by less than a third of the way to 1 %.  A check is run once
 (resumable like the runs) and costs up to 8x the verification's DOFs, so it is not part of
-the default reproduction; a run whose check does not fit this machine carries the measured
-limit instead (``Scene.twice_limit``), and is checked only when named with ``--only``.
+the default reproduction.  A 3D body's check grows from rest on the mesh refined once and
+continues on the mesh refined twice (``Scene.twice_continued``: ``verify --continued``,
+hours from rest, half an hour so on the cube); a run whose check does not fit this
+machine's hour carries the measured limit instead (``Scene.twice_limit``), and is checked
+only when named with ``--only``.
 
 ``--compare`` runs nothing: it sets the summaries of OUT beside those of a second
 reproduction OTHER_OUT, quantity by quantity, writes the comparison to REPORT and exits 1
@@ -131,31 +134,34 @@ _UNIFORM = ("growth.start=given",
 # runs) and still creeping; the pair from the target's metric keeps its 300 (run on, its
 # fixed frame leaves what the body can hold: TRADEOFFS, 'The cube run on: 4000 iterations')
 _RUN_ON = ("optimizer.max_iterations=4000", "optimizer.ftol_rel=1e-6")
-# The cube refined twice: a solid body, not a wall
-_CUBE_TWICE = ("not run: x2 is 352 947 DOFs of a solid cube, a factor of 6.3e8 entries "
-               "(MUMPS's analysis: 9.6 GB in core), 3.4 Tflop a Newton iteration, 1-1.5 min "
-               "on 2 ranks, where the check at x1 took 107: 2-3 h from rest "
-               f"({_NEEDS})")
+# A check continued from x1 (`verify --continued`, PERFORMANCE.md, 'Continued'), not yet
+# made on the run tabled: what it costs from rest, and that it is the next to run
+_NOT_YET = "; continued from x1 (`--only NAME --twice`): not run yet"
 SCENES = [
     Scene(1, "beam_wave", "beam_wave", "3D", f"{_SAME} (Figs. 3a, 4)", group="model",
           twice_limit=_block(2)),
     Scene(1, "beam_wave_2d", "beam_wave_2d", "X1-X3 section, plane stress", f"{_SAME}",
-          twice_limit=f"lifted {_block(2)}"),
+          twice_limit=f"lifted {_block(2)}{_NOT_YET}", twice_continued=True),
     Scene(1, "beam_wave_from_2d", "beam_wave", "3D from the section's optimum (40 + 20)",
           _SAME, (*_FROM, "growth.from_run={out}/beam_wave_2d"), group="restart"),
     Scene(2, "beam_ring", "beam_ring", "3D", f"{_SAME} (Fig. 3b)", group="model"),
     Scene(2, "beam_ring_2d", "beam_ring_2d", "X1-X3 section, plane stress", _SAME,
           # lifted where scene 1's is (verify.lift_refine: 2), so checked once more at x3
-          twice_limit=f"lifted {_block(3)}"),
+          twice_limit=f"lifted {_block(3)}{_NOT_YET}", twice_continued=True),
     Scene(3, "tube_helix", "tube_helix", "3D", f"{_SAME} (Fig. 5)",
           twice_limit=("not run: x2 is 1 662 336 DOFs, a factor of 2.0e9 entries (MUMPS's "
                        "analysis: 22.8 GB in core, 3.1 GB out of core), 6.0 Tflop a Newton "
-                       f"iteration, 2-3 min on 2 ranks: hours from rest ({_NEEDS})")),
+                       f"iteration, 2-3 min on 2 ranks: hours from rest ({_NEEDS})"
+                       f"{_NOT_YET}"), twice_continued=True),
     Scene(4, "disk_cone", "disk_cone", "3D", f"{_SAME} (Fig. 7)",
           twice_limit=("not run to its end: x2 is 1 032 240 DOFs; started out of core, it "
                        "factored its 1.70e9 entries (12.9 GB on disk) every 2.5-3 min on 2 "
                        "ranks and finished no load step in 14 min, where the check at x1 "
-                       f"took 74 Newton iterations: 3-4 h ({_NEEDS})")),
+                       f"took 74 Newton iterations: 3-4 h ({_NEEDS}); continued from x1's "
+                       "equilibrium (the same config's run on 86dcc1d, 0.7757 % verified), "
+                       "Newton diverged on x2 after 4 iterations, its start indefinite there "
+                       "(9 negative eigenvalues; 52 min: PERFORMANCE.md, 'Continued')"),
+          twice_continued=True),
     Scene(4, "disk_cone_axi", "disk_cone_axi", "(R, Z) section, axisymmetric", _SAME,
           group="model"),
     Scene(4, "disk_cone_from_axi", "disk_cone", "3D from the section's optimum (40 + 20)",
@@ -175,17 +181,17 @@ SCENES = [
     # growth whose stress-free square has the disk's area (TRADEOFFS, 'The fixed/free ratio,
     # compared fairly')
     Scene(6, "cube_cylinder_fixed", "cube_cylinder_fixed", "3D cube, fixed frame",
-          "rho_H 13.9 x the free frame's", group="cube", twice_limit=_CUBE_TWICE),
+          "rho_H 13.9 x the free frame's", group="cube", twice_continued=True),
     Scene(6, "cube_cylinder_free", "cube_cylinder_free", "3D cube, free frame (three angles)",
-          "rho_H 1/13.9 of the fixed frame's", group="cube", twice_limit=_CUBE_TWICE),
+          "rho_H 1/13.9 of the fixed frame's", group="cube", twice_continued=True),
     Scene(6, "cube_cylinder_fixed_uniform", "cube_cylinder_fixed",
           "3D cube, fixed frame, from the uniform growth", "-", (*_UNIFORM, *_RUN_ON),
-          group="cube", twice_limit=_CUBE_TWICE),
+          group="cube", twice_continued=True),
     Scene(6, "cube_cylinder_free_staged", "cube_cylinder_free",
           "3D cube, free frame, from the fixed frame's uniform-start optimum at angle 0", "-",
           ("growth.start=run", "growth.from_run={out}/cube_cylinder_fixed_uniform",
            "growth.angles.initial=[0.0, 0.0, 0.0]", *_RUN_ON), group="cube",
-          twice_limit=_CUBE_TWICE),
+          twice_continued=True),
 ]
 # what each group of extra measurements is, how to make it, and where its last numbers are:
 # RESULTS.md names the runs of a group not made
