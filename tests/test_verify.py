@@ -139,8 +139,9 @@ def test_every_run_reports_its_verified_error(shared_tmp):
     s = read_json(shared_tmp / "summary.json")
     v = s["verified"]
     assert set(v) == {"hausdorff", "relative", "refine", "dofs", "wall_s", "branch_changed",
-                      "status", "stability", "surface", "iteration"}
+                      "status", "stability", "surface", "iteration", "continued_from"}
     assert v["iteration"] is None  # verify.best: self, the optimiser's best
+    assert v["continued_from"] is None  # a run's verification grows from rest
     assert v["stability"]["stable"] and v["stability"]["negative"] == 0
     # the boundaries surface to surface beside the volume clouds' points: the same shape
     # error to within the clouds' sampling (a tenth of the cells here)
