@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import time
 from pathlib import Path
 
 from ..config import Config, load
@@ -122,12 +123,13 @@ def _lift(model: ForwardModel, solid: Config, solved: bool, continued: bool, cfg
     mesh one refinement coarser, grown from rest there."""
     if not continued:
         return lifted_model(model, solid, compare=solved)[0]
+    tic = time.perf_counter()
     coarse = lift_config(cfg, lift_path, overrides, refine - 1)
     assert coarse is not None  # solid is not None
     start, reason = lifted_from_rest(model, coarse, refine - 1)
-    if start is None:
-        return Lifted(None, None, 0, 0.0, f"failed: {reason}", solid.name,
-                      continued_from=refine - 1)
+    if start is None:  # its wall time the coarser solve's, as verify's own failure reports
+        return Lifted(None, None, 0, time.perf_counter() - tic, f"failed: {reason}",
+                      solid.name, continued_from=refine - 1)
     return lifted_model(model, solid, compare=solved, start=start)[0]
 
 
