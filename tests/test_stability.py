@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from conftest import CONFIGS, read_json, run_cli
 
@@ -17,6 +18,7 @@ from shapegrowth.physics.stability import Stability, StabilityProblem
 
 BEND = CONFIGS / "tiny" / "beam_bend.yaml"
 CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"
+SQUARE = CONFIGS / "tiny" / "square_disk.yaml"
 
 # Euler buckling of a column clamped at both ends, P = 4 pi^2 E I / L^2, in the strain its
 # held growth puts it under (E cancels): eps = pi^2 / 3 (t / L)^2, t/L = 1/50 for the beam.
@@ -121,6 +123,63 @@ def test_the_ldlt_factorisation_watches_the_path_by_its_inertia(shared_tmp):
     assert ooc["linear_solver"]["fallbacks"] == 0
 
 
+def _square_pair(linear: str):
+    """The square grown unevenly (a stressed equilibrium) on its mesh, solved from rest; and
+    the same growth on the mesh refined once, solved there from rest."""
+    from shapegrowth.optim.refined import carried_to, refined_config
+    from shapegrowth.physics.model import ForwardModel
+
+    cfg = sg.load_config(SQUARE, ["growth.eigenvalues.initial=['2 + 0.25*x1*x2', 2.0]",
+                                  f"solver.linear={linear}"])
+    coarse = ForwardModel.build(cfg)
+    assert coarse.state.solve().converged
+    reference = carried_to(coarse, refined_config(cfg, 1))
+    assert reference.state.solve().converged
+    return coarse, reference
+
+
+def _largest(values) -> float:
+    from mpi4py import MPI
+
+    return MPI.COMM_WORLD.allreduce(float(np.abs(values).max(initial=0.0)), MPI.MAX)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("linear", ["mumps", "mumps_ooc"])
+def test_a_carried_start_newton_cannot_take_is_settled_by_shifted_steps(linear, monkeypatch):
+    """A coarser mesh's equilibrium carried onto the refined mesh, from which Newton's method
+    finds no equilibrium (here: held to one iteration), is taken by shifted Newton steps
+    (paths.settle_carried) to the equilibrium found from rest there: the same displacement
+    to 1e-8 of its largest, stable; in core and out of core.  Where those steps find none
+    too, the solve reports both failures and the state is back at the carried start."""
+    from shapegrowth.optim.refined import carried_to
+    from shapegrowth.physics import paths
+
+    coarse, reference = _square_pair(linear)
+    fine = carried_to(coarse, reference.cfg)
+    fine.state.carry(coarse.state.u)
+    assert fine.state.carried
+    fine.state.newton.snes.setTolerances(max_it=1)  # Newton's method cannot take it
+    report, stability, _ = paths.solve_watched(fine.state)
+    assert report.converged and report.reached == 1.0 and report.reason == ""
+    assert report.newton_iterations == 1 and report.shifted_steps > 0
+    assert not fine.state.carried and fine.state.inverted_points() == 0
+    scale = _largest(reference.state.u.x.array)
+    assert _largest(fine.state.u.x.array - reference.state.u.x.array) < 1e-8 * scale
+    assert stability is not None and stability.stable and stability.negative == 0
+
+    again = carried_to(coarse, reference.cfg)
+    again.state.carry(coarse.state.u)
+    start = again.state.snapshot()
+    again.state.newton.snes.setTolerances(max_it=1)
+    monkeypatch.setattr(paths, "descend", lambda problem, shift, cap: (False, 7))
+    failed, _, _ = paths.solve_watched(again.state)
+    assert not failed.converged and failed.shifted_steps == 7
+    assert failed.reason.startswith("no equilibrium near the carried state (maximum Newton")
+    assert failed.reason.endswith("; no equilibrium in 7 shifted Newton steps")
+    assert np.array_equal(again.state.snapshot(), start)
+
+
 @pytest.mark.mpi
 def test_a_body_far_from_any_threshold_is_stable(shared_tmp):
     """A free cube grown uniformly (stress-free) and the compatible quarter-arc bend of the
@@ -142,8 +201,6 @@ def test_the_state_solvers_own_matrix_serves_as_the_stability_tangent(shared_tmp
     """A solve from rest assesses K in the state solver's matrix (no second copy of the
     tangent): the same eigenvalues as in a matrix of its own, and the next solve, which
     factors that matrix anew, lands where a fresh model does."""
-    import numpy as np
-
     from shapegrowth.config import load
     from shapegrowth.physics.model import ForwardModel
     from shapegrowth.physics.stability import StabilityProblem

@@ -21,6 +21,10 @@ converges there, and the equilibrium found is kept where it has fewer negative e
 than the one left (else the path is followed, and tried again at the next step,
 ``MAX_SWITCHES`` tries in all).  ``branch`` says where the solve ended: ``followed``
 (the path from rest) or ``switched`` (at ``switched_at``).
+
+A state carried from a coarser mesh (a check continued onto a finer one) is solved by
+Newton's method at the full growth; where that finds no equilibrium, the same shifted steps
+take it from the carried start (:func:`settle_carried`).
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 import gc
 import logging
+import time
 from collections.abc import Callable
 
 import dolfinx.fem
@@ -36,6 +41,7 @@ from petsc4py import PETSc
 
 from .. import compat
 from .boundary import body_box
+from .options import SolverOptions
 from .stability import Stability, StabilityError, StabilityProblem, assess_or_none
 from .state import SolveReport, StateProblem
 
@@ -160,7 +166,7 @@ def switch_branch(problem: StabilityProblem, before: Stability) -> Stability | N
     state.u.x.array[:] = start + best[1] * mode
     # Newton's method from there can return to the unstable equilibrium (measured: the
     # hexahedral disk, its pair of modes): shifted steps first, which leave it
-    if descend(problem, 2.0 * -min(before.lowest), STEP_CAP * size):
+    if descend(problem, 2.0 * -min(before.lowest), STEP_CAP * size)[0]:
         ok, reason = True, ""
     else:
         ok, _, reason = state.equilibrate()
@@ -185,11 +191,55 @@ def solve_watched(state: StateProblem, branch: str = "follow"
                   ) -> tuple[SolveReport, Stability | None, StabilityProblem]:
     """``state.solve()`` with its path watched (and, ``branch`` "switch", left where it
     loses stability): the report, the stability where it ended (None where not assessed)
-    and the problem, whose ``mode`` is that state's lowest mode (collective)."""
+    and the problem, whose ``mode`` is that state's lowest mode (collective).  A carried
+    start (``state.carry``) where Newton's method finds no equilibrium is taken again by
+    shifted Newton steps (:func:`settle_carried`)."""
     problem = StabilityProblem(state, shared_tangent=True)  # a solve from rest
     watch = PathWatch(problem, switch=branch == "switch")
+    start = state.snapshot() if state.carried else None
     report = state.solve(watch=watch)
+    if start is not None and not report.converged:
+        report = settle_carried(problem, start, report)
     return report, watch.at(report.reached, report.converged), problem
+
+
+def settle_carried(problem: StabilityProblem, start: np.ndarray, failed: SolveReport
+                   ) -> SolveReport:
+    """The equilibrium nearest the carried start ``start`` (owned DOFs) of a state whose
+    Newton's method from it ``failed`` (the state holds the full growth): shifted Newton
+    steps (:func:`descend`) from it, the shift twice the magnitude of the start's lowest
+    eigenvalue.  Measured: scene 4's cone, its equilibrium on the mesh refined once carried
+    onto the mesh refined twice, is a start with 9 negative eigenvalues there (the lowest
+    -0.034) from which Newton's method diverged (dtol) in 4 iterations.  The report: the
+    failed one's with the steps taken, converged where they found an equilibrium without an
+    inverted point; else the state back at ``start`` (collective)."""
+    state = problem.state
+    tic = time.perf_counter()
+    state.u.x.array[:len(start)] = start
+    state.u.x.scatter_forward()
+    try:
+        lowest = problem.assess().lowest
+    except StabilityError as err:
+        log.warning("no equilibrium near the carried state, whose stability is not assessed "
+                    "(%s): no shifted steps", err)
+        return failed
+    lo, hi = body_box(state.domain.mesh)
+    shift = 2.0 * abs(lowest[0]) if lowest and lowest[0] != 0.0 else 1.0
+    log.info("  %s by Newton's method; shifted Newton steps from it (its lowest eigenvalue "
+             "%.4g, shift %.3g)", failed.reason,
+             lowest[0] if lowest else float("nan"), shift)
+    converged, steps = descend(problem, shift, STEP_CAP * float(np.linalg.norm(hi - lo)))
+    inverted = state.inverted_points() if converged else 0
+    report = dataclasses.replace(failed, shifted_steps=steps,
+                                 seconds=failed.seconds + time.perf_counter() - tic)
+    if converged and not inverted:
+        log.info("  an equilibrium after %d shifted Newton steps", steps)
+        return dataclasses.replace(report, converged=True, reason="", reached=1.0)
+    state.u.x.array[:len(start)] = start
+    state.u.x.scatter_forward()
+    why = f"det F <= 0 at {inverted} sample points" if inverted else \
+        f"no equilibrium in {steps} shifted Newton steps"
+    return dataclasses.replace(report, reason=f"{failed.reason}; {why}")
 
 
 def equilibrium_from_rest(build: Callable[[], StateProblem], branch: str = "follow"
@@ -217,7 +267,7 @@ def equilibrium_from_rest(build: Callable[[], StateProblem], branch: str = "foll
 
 
 def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int = 100,
-            rtol: float = 1e-9) -> bool:
+            rtol: float = 1e-9) -> tuple[bool, int]:
     """Shifted Newton steps from the state's current displacement, (K + shift M) du = R,
     u -= du, each step at most ``cap`` at any node.  About an equilibrium whose negative
     eigenvalues lie above -shift, the iteration moves away from it along their modes (by
@@ -228,17 +278,21 @@ def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int
     after a step where it is positive definite, doubled where not, so that near the
     stable equilibrium the steps become Newton's; a body of revolution's buckled
     equilibria form a circle, whose tangent is singular along it, where plain Newton
-    diverges and these steps do not.  Converged (True) where the residual falls to
-    ``rtol`` of the largest it had, or to Newton's absolute tolerance (collective)."""
+    diverges and these steps do not.  Converged where the residual falls to ``rtol`` of
+    the largest it had, or to Newton's absolute tolerance; and the steps taken
+    (collective).  Its factor is out of core where the state's is (mumps_ooc)."""
     state = problem.state
     A = problem.K.duplicate()
+    options = SolverOptions(problem.role, {
+        "ksp_type": "preonly", "pc_type": "cholesky", "pc_factor_mat_solver_type": "mumps",
+        "mat_mumps_icntl_14": 30,
+        **({"mat_mumps_icntl_22": 1} if state.newton.linear == "mumps_ooc" else {}),
+    }, prefix=problem.options.prefix + "descent_")
     ksp = PETSc.KSP().create(state.domain.mesh.comm)
-    ksp.setOptionsPrefix(problem.options.prefix + "descent_")
-    ksp.setType("preonly")
+    ksp.setOptionsPrefix(options.prefix)
+    with options.pushed():
+        ksp.setFromOptions()
     pc = ksp.getPC()
-    pc.setType("cholesky")
-    pc.setFactorSolverType("mumps")
-    ksp.setFromOptions()
     r = compat.create_vector(state.residual_form)
     du = problem.K.createVecRight()
     x = compat.petsc_vec(state.u)
@@ -251,13 +305,14 @@ def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int
             largest_residual = max(largest_residual, norm)
             log.debug("    shifted step %d: residual %.3e, shift %.3g", step, norm, shift)
             if not np.isfinite(norm):
-                return False
+                return False, step
             if norm <= max(rtol * largest_residual, atol):
-                return True
+                return True, step
             state.tangent_into(A)
             A.axpy(shift, problem.M, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
             ksp.setOperators(A)
-            ksp.solve(r, du)
+            with options.pushed():  # MUMPS reads its options at the factorisation
+                ksp.solve(r, du)
             definite = int(pc.getFactorMatrix().getMumpsInfog(12)) == 0
             largest = du.norm(PETSc.NormType.INFINITY)
             x.axpy(-min(1.0, cap / largest) if largest > 0 else 0.0, du)
@@ -266,4 +321,4 @@ def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int
     finally:
         ksp.destroy()
         A.destroy()
-    return False
+    return False, iterations

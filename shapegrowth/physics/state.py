@@ -79,6 +79,7 @@ class SolveReport:
     failed_steps: int = 0
     newton_iterations: int = 0
     chord_steps: int = 0  # predictor steps on the last factors (no factorisation)
+    shifted_steps: int = 0  # a carried start's fallback (paths.solve_watched), where taken
     reached: float = 1.0  # fraction of the requested growth change in equilibrium
     seconds: float = 0.0
     history: list[tuple[float, int]] = field(default_factory=list)  # (t, iterations)
@@ -265,6 +266,12 @@ class StateProblem:
         """Whether the next solve starts from rest (load steps from C_g = I)."""
         return self._at_rest
 
+    @property
+    def carried(self) -> bool:
+        """Whether the next solve starts from a carried guess (:meth:`carry`): Newton at the
+        full growth from a state that is no equilibrium of this mesh."""
+        return not self._at_rest and self._equilibrium is None
+
     def reset(self, step_scale: float = 1.0) -> None:
         """Forget the equilibrium: the next solve starts from rest, its first load step
         ``step_scale`` times ``solver.continuation.initial_step``."""
@@ -277,7 +284,8 @@ class StateProblem:
         """Start the next solve from the displacement ``source`` of another mesh of this
         body (a coarser level's equilibrium, exact on a nested refinement): Newton at the
         full growth from there, no load steps.  Where it does not converge the solve reports
-        so at once (the driver then retries from rest).  Measured on scene 4's section: from
+        so at once (the driver then retries from rest; a check continued onto a finer mesh
+        takes shifted Newton steps from it: paths.solve_watched).  Measured on scene 4's section: from
         rest, the second level's growth found no equilibrium beyond 3.6 % of it (the flat
         disk's bifurcation), while the first level's optimum is a buckled cone already."""
         interpolate_between_meshes(source, self.u)
@@ -316,7 +324,7 @@ class StateProblem:
             start, scale0, dt = end, 1.0, 1.0
         else:
             start, scale0, dt = self._equilibrium, 1.0, 1.0
-        carried = not self._at_rest and self._equilibrium is None
+        carried = self.carried
         # progress per load step from rest or from a carried state (a level's first solve, a
         # continued check); warm re-solves (optimisation) only in --verbose
         level = logging.INFO if self._at_rest or carried else logging.DEBUG
