@@ -285,9 +285,10 @@ class StateProblem:
         body (a coarser level's equilibrium, exact on a nested refinement): Newton at the
         full growth from there, no load steps.  Where it does not converge the solve reports
         so at once (the driver then retries from rest; a check continued onto a finer mesh
-        takes shifted Newton steps from it: paths.solve_watched).  Measured on scene 4's section: from
-        rest, the second level's growth found no equilibrium beyond 3.6 % of it (the flat
-        disk's bifurcation), while the first level's optimum is a buckled cone already."""
+        takes shifted Newton steps from it: paths.solve_watched).  Measured on scene 4's
+        section: from rest, the second level's growth found no equilibrium beyond 3.6 % of it
+        (the flat disk's bifurcation), while the first level's optimum is a buckled cone
+        already."""
         interpolate_between_meshes(source, self.u)
         self.u.x.scatter_forward()
         self._at_rest = False
