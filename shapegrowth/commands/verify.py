@@ -43,7 +43,7 @@ from ..io import files as io
 from ..io.summary import percent
 from ..logs import progress_file
 from ..optim.lift import Lifted, lifted_from_rest, lifted_model, verification_model
-from ..optim.refined import Reverified, verify
+from ..optim.refined import Reverified, Verified, verified_from_rest, verify
 from ..physics.model import ForwardModel
 from ..physics.stability import describe, unstable_tag
 from .lift import reduced_run, solve_best_growth
@@ -94,7 +94,7 @@ def reverify(run_dir: Path, refine: int | None = None, out: Path | None = None,
                  f"; lifted onto {solid.name} (its mesh refined {solid.mesh.refine} time(s)), "
                  + how)
         # a section is a 2D model: grown from rest at any refinement; its 3D body continued
-        verified = verify(model, refine, continued=continued and solid is None)
+        verified = _verify(model, refine, continued and solid is None)
         if solid is not None:  # the departure compares the section's own equilibrium (s)
             solved = solve_best_growth(model, run_dir, "verify")
             lifted = _lift(model, solid, solved, continued, cfg, lift_path, overrides, refine)
@@ -116,6 +116,19 @@ def reverify(run_dir: Path, refine: int | None = None, out: Path | None = None,
     return check
 
 
+def _verify(model: ForwardModel, refine: int, continued: bool) -> Verified:
+    """The model's own check: from rest, or ``continued`` from its equilibrium from rest on
+    the mesh one refinement coarser."""
+    if not continued:
+        return verify(model, refine)
+    tic = time.perf_counter()
+    start, reason = verified_from_rest(model, refine - 1)
+    if start is None:  # its wall time the coarser solve's
+        return Verified(None, None, refine, 0, time.perf_counter() - tic, False,
+                        f"failed: {reason}", continued_from=refine - 1)
+    return verify(model, refine, start=start)
+
+
 def _lift(model: ForwardModel, solid: Config, solved: bool, continued: bool, cfg: Config,
           lift_path: str | None, overrides: list[str] | tuple[str, ...], refine: int
           ) -> Lifted:
@@ -127,7 +140,7 @@ def _lift(model: ForwardModel, solid: Config, solved: bool, continued: bool, cfg
     coarse = lift_config(cfg, lift_path, overrides, refine - 1)
     assert coarse is not None  # solid is not None
     start, reason = lifted_from_rest(model, coarse, refine - 1)
-    if start is None:  # its wall time the coarser solve's, as verify's own failure reports
+    if start is None:  # its wall time the coarser solve's
         return Lifted(None, None, 0, time.perf_counter() - tic, f"failed: {reason}",
                       solid.name, continued_from=refine - 1)
     return lifted_model(model, solid, compare=solved, start=start)[0]

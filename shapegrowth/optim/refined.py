@@ -22,12 +22,10 @@ import logging
 import time
 from dataclasses import dataclass
 
-import dolfinx.fem
-
 from .. import compat
 from ..config import Config
 from ..physics.model import ForwardModel
-from ..physics.paths import equilibrium_from_rest, solve_watched
+from ..physics.paths import Continued, equilibrium_from_rest, solve_watched
 from ..physics.stability import Stability
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
@@ -187,28 +185,17 @@ def carried_to(model: ForwardModel, cfg: Config) -> ForwardModel:
 
 
 def verify(model: ForwardModel, refine: int, branch_changed: bool = False,
-           continued: bool = False) -> Verified:
+           start: Continued | None = None) -> Verified:
     """The growth ``model`` is in equilibrium with, on its mesh refined ``refine`` times,
-    solved from rest (collective).  ``continued``: solved from rest on the mesh refined
-    ``refine`` - 1 times, and that equilibrium carried onto the mesh refined ``refine`` times
-    and solved there at the full growth (``shapegrowth verify --continued``;
-    :func:`~shapegrowth.physics.paths.equilibrium_from_rest`)."""
-    tic = time.perf_counter()
+    solved from rest (collective).  ``start``: solved there at the full growth from the
+    equilibrium grown from rest on a coarser mesh (:func:`verified_from_rest`;
+    ``shapegrowth verify --continued``), that solve's wall time counted in the check's."""
+    tic = time.perf_counter() - (0.0 if start is None else start.seconds)
     cfg = refined_config(model.cfg, refine)
-    start: dolfinx.fem.Function | None = None
-    coarser = refine - 1 if continued else None
-    if coarser is not None:
-        start, first = equilibrium_from_rest(
-            lambda: carried_to(model, refined_config(model.cfg, coarser)).state,
-            model.cfg.solver.branch)
-        if start is None:
-            return Verified(None, None, refine, 0, time.perf_counter() - tic, branch_changed,
-                            f"failed: from rest on the mesh refined {coarser} time(s): "
-                            f"{first.reason}", continued_from=coarser)
+    coarser = None if start is None else start.refine
     fine = carried_to(model, cfg)
     if start is not None:
-        fine.state.carry(start)
-        del start
+        fine.state.carry(start.displacement)
     report, stability, _ = solve_watched(fine.state, cfg.solver.branch)
     dofs = compat.global_size(fine.state.V)
     if not report.converged:
@@ -221,6 +208,18 @@ def verify(model: ForwardModel, refine: int, branch_changed: bool = False,
     return Verified(measured.hausdorff, measured.relative, refine, dofs,
                     time.perf_counter() - tic, branch_changed, "solved", stability=stability,
                     surface=measured.surface, continued_from=coarser)
+
+
+def verified_from_rest(model: ForwardModel, refine: int) -> tuple[Continued | None, str]:
+    """The growth ``model`` is in equilibrium with, on its mesh refined ``refine`` times,
+    grown from rest: the start of a check continued onto a finer mesh; None and the reason
+    where no equilibrium was found (collective)."""
+    start, report = equilibrium_from_rest(
+        lambda: carried_to(model, refined_config(model.cfg, refine)).state, refine,
+        model.cfg.solver.branch)
+    if start is None:
+        return None, f"from rest on the mesh refined {refine} time(s): {report.reason}"
+    return start, "solved"
 
 
 def branch_changed(from_rest: float | None, own: float, target_size: float) -> bool:

@@ -34,6 +34,7 @@ import gc
 import logging
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import dolfinx.fem
 import numpy as np
@@ -242,20 +243,33 @@ def settle_carried(problem: StabilityProblem, start: np.ndarray, failed: SolveRe
     return dataclasses.replace(report, reason=f"{failed.reason}; {why}")
 
 
-def equilibrium_from_rest(build: Callable[[], StateProblem], branch: str = "follow"
-                          ) -> tuple[dolfinx.fem.Function | None, SolveReport]:
-    """The displacement of the state ``build`` makes (a growth at rest), grown from rest
-    with its path watched (:func:`solve_watched`), and the solve's report; None where it
-    found no equilibrium.  Only the displacement is kept: the state's factors are freed
-    before the caller factors another (collective).
+@dataclass(frozen=True)
+class Continued:
+    """The start of a check continued onto a finer mesh (``shapegrowth verify --continued``):
+    the displacement of the same body's equilibrium on a coarser mesh, grown from rest
+    there; the check's refinement it was made at, and that solve's wall time (counted in
+    the check's)."""
 
-    The start of a check continued onto a finer mesh (``shapegrowth verify --continued``):
-    from rest on a mesh refined twice a check takes a factorisation of a million DOFs or
+    displacement: dolfinx.fem.Function
+    refine: int
+    seconds: float
+
+
+def equilibrium_from_rest(build: Callable[[], StateProblem], refine: int,
+                          branch: str = "follow") -> tuple[Continued | None, SolveReport]:
+    """The state ``build`` makes (a growth at rest, on the mesh of the check's refinement
+    ``refine``) grown from rest with its path watched (:func:`solve_watched`): the start of
+    a check continued onto a finer mesh, and the solve's report; None where it found no
+    equilibrium.  Only the displacement is kept: the state's factors are freed before the
+    caller factors another (collective).
+
+    From rest on a mesh refined twice a check takes a factorisation of a million DOFs or
     more per Newton iteration, and 74-107 of them on the verification's meshes
     (docs/PERFORMANCE.md, 'What a refined-twice check would need'): hours.  Continued, the
     path from rest - and with it the branch - is the coarser mesh's, and the finer mesh takes
     the few Newton iterations from its equilibrium to its own, its stability assessed
     there."""
+    tic = time.perf_counter()
     state = build()
     log.info("grown from rest on %d DOFs, to be continued on a finer mesh",
              compat.global_size(state.V))
@@ -263,7 +277,9 @@ def equilibrium_from_rest(build: Callable[[], StateProblem], branch: str = "foll
     u = state.u if report.converged else None
     del state
     gc.collect()  # its factors, before the finer mesh's
-    return u, report
+    if u is None:
+        return None, report
+    return Continued(u, refine, time.perf_counter() - tic), report
 
 
 def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int = 100,
