@@ -226,8 +226,8 @@ def settle_carried(problem: StabilityProblem, start: np.ndarray, failed: SolveRe
         return failed
     lo, hi = body_box(state.domain.mesh)
     shift = 2.0 * abs(lowest[0]) if lowest and lowest[0] != 0.0 else 1.0
-    log.info("  %s by Newton's method; shifted Newton steps from it (its lowest eigenvalue "
-             "%.4g, shift %.3g)", failed.reason,
+    log.info("  %s: shifted Newton steps from it (its lowest eigenvalue %.4g, shift %.3g)",
+             failed.reason,
              lowest[0] if lowest else float("nan"), shift)
     converged, steps = descend(problem, shift, STEP_CAP * float(np.linalg.norm(hi - lo)))
     inverted = state.inverted_points() if converged else 0
@@ -319,7 +319,8 @@ def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int
             state.assemble_residual(x, r)
             norm = r.norm()
             largest_residual = max(largest_residual, norm)
-            log.debug("    shifted step %d: residual %.3e, shift %.3g", step, norm, shift)
+            # each a factorisation (minutes on a million DOFs): in the progress log
+            log.info("    shifted step %d: residual %.3e, shift %.3g", step, norm, shift)
             if not np.isfinite(norm):
                 return False, step
             if norm <= max(rtol * largest_residual, atol):

@@ -370,14 +370,16 @@ class StateProblem:
                 continue
             report.failed_steps += 1
             self.u.x.array[:] = saved
+            if carried:  # smaller steps toward the same growth cannot help
+                log.log(level, "  Newton's method from the carried state failed (%s after %d "
+                        "iterations)", reason, its)
+                report.converged = False
+                report.reason = f"no equilibrium near the carried state ({reason})"
+                break
             dt /= 2.0
             hold = HOLD_AFTER_CUT if cont.step_rtol is not None else 0
             log.log(level, "  load step at t = %.4f failed (%s after %d iterations): "
                     "step cut to %.3g", trial, reason, its, dt)
-            if carried:  # smaller steps toward the same growth cannot help
-                report.converged = False
-                report.reason = f"no equilibrium near the carried state ({reason})"
-                break
             if dt < cont.min_step or report.steps + report.failed_steps >= cont.max_steps:
                 report.converged = False
                 report.reason = f"no equilibrium beyond {t:.4f} of the growth ({reason})"
