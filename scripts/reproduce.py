@@ -169,7 +169,8 @@ SCENES = [
                        f"took 74 Newton iterations: 3-4 h ({_NEEDS}); continued from x1's "
                        "equilibrium (the same config's run on 86dcc1d, 0.7757 % verified), "
                        "Newton diverged on x2 after 4 iterations, its start indefinite there "
-                       "(9 negative eigenvalues; 52 min: PERFORMANCE.md, 'Continued')"),
+                       "(9 negative eigenvalues; 52 min); the shifted Newton steps a carried "
+                       "start now falls back to: PERFORMANCE.md, 'Continued'"),
           twice_continued=True),
     Scene(4, "disk_cone_axi", "disk_cone_axi", "(R, Z) section, axisymmetric", _SAME,
           group="model"),
