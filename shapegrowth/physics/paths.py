@@ -147,8 +147,7 @@ def switch_branch(problem: StabilityProblem, before: Stability) -> Stability | N
     start = state.u.x.array.copy()
     mode = problem.mode.x.array.copy()
     e0 = problem.energy()
-    lo, hi = body_box(state.domain.mesh)
-    size = float(np.linalg.norm(hi - lo))
+    size = _body_size(state)
     best = (e0, 0.0)
     for sign in (1.0, -1.0):
         amplitude = FIRST_AMPLITUDE * size
@@ -216,31 +215,40 @@ def settle_carried(problem: StabilityProblem, start: np.ndarray, failed: SolveRe
     inverted point; else the state back at ``start`` (collective)."""
     state = problem.state
     tic = time.perf_counter()
-    state.u.x.array[:len(start)] = start
-    state.u.x.scatter_forward()
+    _put_back(state, start)
     try:
         lowest = problem.assess().lowest
     except StabilityError as err:
         log.warning("no equilibrium near the carried state, whose stability is not assessed "
                     "(%s): no shifted steps", err)
         return failed
-    lo, hi = body_box(state.domain.mesh)
     shift = 2.0 * abs(lowest[0]) if lowest and lowest[0] != 0.0 else 1.0
     log.info("  %s: shifted Newton steps from it (its lowest eigenvalue %.4g, shift %.3g)",
-             failed.reason,
-             lowest[0] if lowest else float("nan"), shift)
-    converged, steps = descend(problem, shift, STEP_CAP * float(np.linalg.norm(hi - lo)))
+             failed.reason, lowest[0] if lowest else float("nan"), shift)
+    converged, steps = descend(problem, shift, STEP_CAP * _body_size(state))
     inverted = state.inverted_points() if converged else 0
     report = dataclasses.replace(failed, shifted_steps=steps,
                                  seconds=failed.seconds + time.perf_counter() - tic)
     if converged and not inverted:
         log.info("  an equilibrium after %d shifted Newton steps", steps)
         return dataclasses.replace(report, converged=True, reason="", reached=1.0)
-    state.u.x.array[:len(start)] = start
-    state.u.x.scatter_forward()
+    _put_back(state, start)
     why = f"det F <= 0 at {inverted} sample points" if inverted else \
         f"no equilibrium in {steps} shifted Newton steps"
     return dataclasses.replace(report, reason=f"{failed.reason}; {why}")
+
+
+def _body_size(state: StateProblem) -> float:
+    """The diagonal of the body's box: the scale of a branch switch's moves (collective)."""
+    lo, hi = body_box(state.domain.mesh)
+    return float(np.linalg.norm(hi - lo))
+
+
+def _put_back(state: StateProblem, owned: np.ndarray) -> None:
+    """The state's displacement back to ``owned`` (a :meth:`StateProblem.snapshot`), its
+    equilibrium bookkeeping untouched."""
+    state.u.x.array[:len(owned)] = owned
+    state.u.x.scatter_forward()
 
 
 @dataclass(frozen=True)
