@@ -181,6 +181,37 @@ def test_a_carried_start_newton_cannot_take_is_settled_by_shifted_steps(linear, 
 
 
 @pytest.mark.mpi
+def test_shifted_steps_take_no_step_with_an_indefinite_operator(shared_tmp):
+    """paths.descend from the straight bar past Euler's strain (one negative eigenvalue),
+    nudged along its mode, with a shift 1e-6 of that eigenvalue's magnitude: K + shift M is
+    indefinite there, so no step is taken with it; the shift is doubled until it is
+    definite, and the steps leave the straight bar for the buckled, stable one.  Stepping
+    with the indefinite operator instead pulls the nudge back (by shift / (shift +
+    omega^2), about -1e-6): Newton's steps to the unstable straight bar, converged there
+    before the shift is doubled past the eigenvalue."""
+    from shapegrowth.physics import paths
+    from shapegrowth.physics.model import ForwardModel
+
+    strain = 1.25 * EULER_STRAIN
+    cfg = sg.load_config(BEND, ["mesh.cells=hex", f"mesh.cache_dir={shared_tmp}",
+                                "boundary.clamp=[x1_min, x1_max]",
+                                f"growth.eigenvalues.initial=[{(1 + strain) ** 2}, 1, 1]"])
+    model = ForwardModel.build(cfg)
+    assert model.state.solve().converged  # the straight bar: no path watched
+    problem = StabilityProblem(model.state)
+    straight = problem.assess()
+    assert straight.negative == 1 and straight.lowest[0] < 0
+    size = 1.0  # the bar's length
+    model.state.u.x.array[:] += 1e-3 * size * problem.mode.x.array
+    model.state.u.x.scatter_forward()
+    converged, steps = paths.descend(problem, 1e-6 * -straight.lowest[0], 0.02 * size)
+    assert converged and steps > 0
+    buckled = problem.assess()
+    assert buckled.negative == 0 and buckled.stable
+    assert _largest(model.state.u.x.array[2::3]) > 10 * 1e-3 * size  # it buckled
+
+
+@pytest.mark.mpi
 def test_a_body_far_from_any_threshold_is_stable(shared_tmp):
     """A free cube grown uniformly (stress-free) and the compatible quarter-arc bend of the
     cantilever: every eigenvalue positive."""
