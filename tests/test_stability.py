@@ -184,11 +184,11 @@ def test_a_carried_start_newton_cannot_take_is_settled_by_shifted_steps(linear, 
 def test_shifted_steps_take_no_step_with_an_indefinite_operator(shared_tmp):
     """paths.descend from the straight bar past Euler's strain (one negative eigenvalue),
     nudged along its mode, with a shift 1e-6 of that eigenvalue's magnitude: K + shift M is
-    indefinite there, so no step is taken with it; the shift is doubled until it is
-    definite, and the steps leave the straight bar for the buckled, stable one.  Stepping
-    with the indefinite operator instead pulls the nudge back (by shift / (shift +
-    omega^2), about -1e-6): Newton's steps to the unstable straight bar, converged there
-    before the shift is doubled past the eigenvalue."""
+    indefinite there, so no step is taken with it; the shift is raised (4x at a time)
+    until it is definite, and the steps leave the straight bar for the buckled, stable
+    one.  Stepping with the indefinite operator instead pulls the nudge back (by shift /
+    (shift + omega^2), about -1e-6): Newton's steps to the unstable straight bar,
+    converged there before the shift is raised past the eigenvalue."""
     from shapegrowth.physics import paths
     from shapegrowth.physics.model import ForwardModel
 
