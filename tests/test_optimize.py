@@ -643,3 +643,19 @@ def test_reproduce_compare_keeps_the_sections_measured_by_hand():
     assert reproduce.with_kept("new\n", "no such line") == "new\n"
     shipped = (ROOT / "docs" / "REPRODUCIBILITY.md").read_text()
     assert shipped.count(reproduce.KEPT) == 1
+
+
+def test_reproduce_says_what_a_cube_row_s_missing_check_takes(tmp_path):
+    """A cube row whose refined-twice check is not made says what it takes (x2's DOFs, the
+    time the uniform fixed frame's took) and the command that makes it, where a row without
+    a measured limit says only `--twice`."""
+    from types import SimpleNamespace
+
+    reproduce = _reproduce_module()
+    verified_once = SimpleNamespace(verified=SimpleNamespace(refine=1))
+    for scene in reproduce.SCENES:
+        cell = reproduce._twice(scene, tmp_path / scene.name, verified_once)
+        if scene.group == "cube":
+            assert "352 947 DOFs" in cell and "`--cube --twice`" in cell
+        else:
+            assert "--cube" not in cell
