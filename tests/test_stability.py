@@ -150,7 +150,8 @@ def test_a_carried_start_newton_cannot_take_is_settled_by_shifted_steps(linear, 
     """A coarser mesh's equilibrium carried onto the refined mesh, from which Newton's method
     finds no equilibrium (here: held to one iteration), is taken by shifted Newton steps
     (paths.settle_carried) to the equilibrium found from rest there: the same displacement
-    to 1e-8 of its largest, stable; in core and out of core.  Where those steps find none
+    to 1e-8 of its largest, stable; in core and out of core; a warm re-solve after them
+    converges from its chord predictor.  Where those steps find none
     too, the solve reports both failures and the state is back at the carried start."""
     from shapegrowth.optim.refined import carried_to
     from shapegrowth.physics import paths
@@ -167,6 +168,14 @@ def test_a_carried_start_newton_cannot_take_is_settled_by_shifted_steps(linear, 
     scale = _largest(reference.state.u.x.array)
     assert _largest(fine.state.u.x.array - reference.state.u.x.array) < 1e-8 * scale
     assert stability is not None and stability.stable and stability.negative == 0
+    # the steps freed Newton's factors (one factorisation in memory at a time); a warm
+    # re-solve's chord predictor solves with Newton's KSP again, factored anew
+    assert not fine.state.newton.factored_by_preset
+    fine.state.u.x.array[:] += 1e-6 * scale
+    fine.state.u.x.scatter_forward()
+    warm = fine.state.solve()
+    assert warm.converged and warm.chord_steps > 0
+    assert _largest(fine.state.u.x.array - reference.state.u.x.array) < 1e-8 * scale
 
     again = carried_to(coarse, reference.cfg)
     again.state.carry(coarse.state.u)

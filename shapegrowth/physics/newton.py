@@ -174,6 +174,20 @@ class NewtonSolver:
         ok, more, reason = self._exact_solve(reference, rtol)
         return ok, its + more, reason
 
+    def release_factors(self) -> None:
+        """Free the factorisations the last solve left (the preset's and the exact
+        fallback's): the next solve factors anew.  For a solver about to factor another
+        operator of the same size (paths.descend; measured: the cube at x2 in core, the
+        Newton, eigensolve and descent factors held at once, 12.8 GB on rank 0 of 2,
+        killed for memory on this 24 GB machine)."""
+        ksp = self.snes.getKSP()
+        J, P, _ = self.snes.getJacobian()
+        ksp.reset()
+        ksp.setOperators(J, P)  # kept: the state's chord predictor solves with this KSP
+        if self._exact is not None:
+            self._exact[0].reset()
+        self.factored_by_preset = False
+
     def inertia(self) -> int | None:
         """The number of negative pivots of the last Newton step's factorisation where it is
         MUMPS's LDL^T of the tangent (its inertia: the tangent's negative eigenvalues, at

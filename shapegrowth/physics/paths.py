@@ -40,7 +40,7 @@ import dolfinx.fem
 import numpy as np
 from petsc4py import PETSc
 
-from .. import compat
+from .. import compat, heap
 from .boundary import body_box
 from .options import SolverOptions
 from .stability import Stability, StabilityError, StabilityProblem, assess_or_none
@@ -216,6 +216,7 @@ def settle_carried(problem: StabilityProblem, start: np.ndarray, failed: SolveRe
     state = problem.state
     tic = time.perf_counter()
     _put_back(state, start)
+    state.newton.release_factors()  # the failed Newton's, before the eigensolve's
     try:
         lowest = problem.assess().lowest
     except StabilityError as err:
@@ -314,6 +315,9 @@ def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int
     absolute tolerance; and the factorisations made (collective).  Its factor is out of
     core where the state's is (mumps_ooc)."""
     state = problem.state
+    # one factorisation in memory at a time: Newton's and the eigensolve's are freed first
+    state.newton.release_factors()
+    problem.release_factor()
     A = problem.K.duplicate()
     options = SolverOptions(problem.role, {
         "ksp_type": "preonly", "pc_type": "cholesky", "pc_factor_mat_solver_type": "mumps",
@@ -365,4 +369,5 @@ def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int
     finally:
         ksp.destroy()
         A.destroy()
+        heap.trim()
     return False, iterations

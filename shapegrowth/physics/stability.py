@@ -196,6 +196,12 @@ class StabilityProblem:
         heap.trim()
         return Stability(lowest, negative)
 
+    def release_factor(self) -> None:
+        """Free the eigensolve's factorisation (the next :meth:`assess` factors anew) and
+        the freed pages back to the system."""
+        self.eps.getST().getKSP().reset()
+        heap.trim()
+
     def _solve(self, target: float) -> PETSc.Mat:
         """Solve the eigenproblem about ``target``; the shifted operator's factor (whose
         inertia is the number of eigenvalues below the target)."""
