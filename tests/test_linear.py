@@ -97,6 +97,25 @@ def test_taylor_rate_with_each_preset(config, preset, shared_tmp):
 
 
 @pytest.mark.mpi
+@pytest.mark.slow  # 18 s serially: the bend grown from rest by GAMG, falling back to LU
+def test_a_warm_solve_after_a_failed_preset_starts_from_its_chord_predictor():
+    """A preset's failed solve resets its KSP (a failed factorisation stays failed); the
+    operators stay, so the next warm solve's chord predictor, which solves with that KSP
+    directly, runs (it stopped on PETSc's error before) and the solve converges."""
+    from shapegrowth.physics.model import ForwardModel
+
+    cfg = load(BEND, ["parameters.kappa=1.5707963", "solver.linear=gamg",
+                      "solver.petsc_options={state_ksp_max_it: 2}"])
+    model = ForwardModel.build(cfg)
+    with linear.counting() as tally:
+        assert model.state.solve().converged
+    assert tally.state > 0  # the preset failed, its KSP reset
+    model.state.u.x.array[:] += 1e-6
+    model.state.u.x.scatter_forward()
+    assert model.state.solve().converged
+
+
+@pytest.mark.mpi
 @pytest.mark.mpi_slow  # 6 s on two ranks; the fast tier's fall-back on two ranks: the adjoint's
 def test_a_failed_state_solve_falls_back_to_lu_and_is_counted(shared_tmp, capsys):
     """GAMG allowed two Krylov iterations cannot solve the thin beam's Newton steps: each
