@@ -385,8 +385,9 @@ def _twice(scene: Scene, folder: Path, s: RunSummary) -> str:
         if scene.twice_limit:
             return scene.twice_limit
         if scene.group == "cube":  # the same x2 as the uniform fixed frame's check
-            return ("not run: continued from x1 on 352 947 DOFs, about half an hour on 2 "
-                    "ranks as the uniform fixed frame's (`--cube --twice`)")
+            return ("not run: continued from x1 on 352 947 DOFs, 16-34 min on 2 ranks where "
+                    "Newton's method takes the carried start, about an hour where the shifted "
+                    "steps must (PERFORMANCE.md, 'Continued'; `--cube --twice`)")
         return "not run (`--twice`)"
     v = check.second
     if check.second_headline is None:
