@@ -288,15 +288,21 @@ KSP_REASONS = {  # PETSc's KSPConvergedReason, the failures
 }
 
 
-def reset_after_failure(ksp: PETSc.KSP) -> None:
-    """Forget a failed preconditioner (a factorisation that failed stays failed, and GAMG's
-    reused interpolation with it: PETSc error 76 at every later solve), so that the next
-    solve builds it anew from its operators.  The operators are kept: the state's chord
-    predictor solves with this KSP directly (measured: a warm solve after GAMG's failure
-    stopped on PETSc error 56, the reset KSP's matrix of type null)."""
+def free_factorisation(ksp: PETSc.KSP) -> None:
+    """Free the KSP's preconditioner (a factorisation, its memory), its operators kept, so
+    that the next solve builds it anew from them: the state's chord predictor solves with
+    its KSP directly (measured: a warm solve after KSP.reset() alone stopped on PETSc
+    error 56, the reset KSP's matrix of type null)."""
     A, P = ksp.getOperators()
     ksp.reset()
     ksp.setOperators(A, P)
+
+
+def reset_after_failure(ksp: PETSc.KSP) -> None:
+    """Forget a failed preconditioner (a factorisation that failed stays failed, and GAMG's
+    reused interpolation with it: PETSc error 76 at every later solve), so that the next
+    solve builds it anew from its operators (:func:`free_factorisation`)."""
+    free_factorisation(ksp)
 
 
 def reason_of(solver: Any) -> int:

@@ -180,12 +180,9 @@ class NewtonSolver:
         operator of the same size (paths.descend; measured: the cube at x2 in core, the
         Newton, eigensolve and descent factors held at once, 12.8 GB on rank 0 of 2,
         killed for memory on this 24 GB machine)."""
-        ksp = self.snes.getKSP()
-        J, P, _ = self.snes.getJacobian()
-        ksp.reset()
-        ksp.setOperators(J, P)  # kept: the state's chord predictor solves with this KSP
+        linear.free_factorisation(self.snes.getKSP())
         if self._exact is not None:
-            self._exact[0].reset()
+            linear.free_factorisation(self._exact[0])
         self.factored_by_preset = False
 
     def inertia(self) -> int | None:
