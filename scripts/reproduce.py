@@ -91,6 +91,8 @@ class Scene:
     # mesh refined twice (`shapegrowth verify --continued`): from rest it is hours here
     # (PERFORMANCE.md, 'What a refined-twice check would need', 'Continued')
     twice_continued: bool = False
+    # what the refined-twice check takes where it is run with the rest but not made yet, or ""
+    twice_takes: str = ""
 
     @property
     def extra(self) -> bool:
@@ -134,6 +136,8 @@ _UNIFORM = ("growth.start=given",
 # runs) and still creeping; the pair from the target's metric keeps its 300 (run on, its
 # fixed frame leaves what the body can hold: TRADEOFFS, 'The cube run on: 4000 iterations')
 _RUN_ON = ("optimizer.max_iterations=4000", "optimizer.ftol_rel=1e-6")
+
+
 def _continued(took: str) -> str:
     """A check run only when named: what it took continued from x1 (PERFORMANCE.md,
     'Continued')."""
@@ -147,6 +151,10 @@ _CUBE_CARRIED = ("not run: x2 is 352 947 DOFs; continued from x1, Newton diverge
                  "in 20 min (a step of about one element left K + 1180 M indefinite); from "
                  "rest 44-77 Newton iterations at x1's count, 1.4 min a factorisation: 1-2 h "
                  "(PERFORMANCE.md, 'Continued')")
+# the cube's rows whose carried start Newton's method takes (the same x2 as these)
+_CUBE_TAKES = ("not run: continued from x1 on 352 947 DOFs, 16-34 min on 2 ranks where "
+               "Newton's method takes the carried start, about an hour where the shifted "
+               "steps must (PERFORMANCE.md, 'Continued'; `--cube --twice`)")
 
 
 SCENES = [
@@ -200,10 +208,11 @@ SCENES = [
           "rho_H 13.9 x the free frame's", group="cube", twice_limit=_CUBE_CARRIED,
           twice_continued=True),
     Scene(6, "cube_cylinder_free", "cube_cylinder_free", "3D cube, free frame (three angles)",
-          "rho_H 1/13.9 of the fixed frame's", group="cube", twice_continued=True),
+          "rho_H 1/13.9 of the fixed frame's", group="cube", twice_continued=True,
+          twice_takes=_CUBE_TAKES),
     Scene(6, "cube_cylinder_fixed_uniform", "cube_cylinder_fixed",
           "3D cube, fixed frame, from the uniform growth", "-", (*_UNIFORM, *_RUN_ON),
-          group="cube", twice_continued=True),
+          group="cube", twice_continued=True, twice_takes=_CUBE_TAKES),
     Scene(6, "cube_cylinder_free_staged", "cube_cylinder_free",
           "3D cube, free frame, from the fixed frame's uniform-start optimum at angle 0", "-",
           ("growth.start=run", "growth.from_run={out}/cube_cylinder_fixed_uniform",
@@ -392,13 +401,7 @@ def _twice(scene: Scene, folder: Path, s: RunSummary) -> str:
     way to 1 %, and the verdict; else why there is none."""
     check = read_twice(folder, s)
     if check is None:
-        if scene.twice_limit:
-            return scene.twice_limit
-        if scene.group == "cube":  # the same x2 as the uniform fixed frame's check
-            return ("not run: continued from x1 on 352 947 DOFs, 16-34 min on 2 ranks where "
-                    "Newton's method takes the carried start, about an hour where the shifted "
-                    "steps must (PERFORMANCE.md, 'Continued'; `--cube --twice`)")
-        return "not run (`--twice`)"
+        return scene.twice_limit or scene.twice_takes or "not run (`--twice`)"
     v = check.second
     if check.second_headline is None:
         return f"x{v.refine}, {v.headline_dofs} DOFs: {v.headline_status}"
