@@ -175,16 +175,11 @@ SCENES = [
                        f"iteration, 2-3 min on 2 ranks: hours from rest ({_NEEDS})"
                        f"{_continued('57 min, beside other runs')}"), twice_continued=True),
     Scene(4, "disk_cone", "disk_cone", "3D", f"{_SAME} (Fig. 7)",
-          twice_limit=("not run to its end: x2 is 1 032 240 DOFs; started out of core, it "
-                       "factored its 1.70e9 entries (12.9 GB on disk) every 2.5-3 min on 2 "
-                       "ranks and finished no load step in 14 min, where the check at x1 "
-                       f"took 74 Newton iterations: 3-4 h ({_NEEDS}); continued from x1's "
-                       "equilibrium, Newton diverges on x2 (its start has 9 negative "
-                       "eigenvalues there), and the shifted Newton steps a carried start "
-                       "falls back to take about 30 factorisations (one refinement coarser, "
-                       "the run's own mesh's cone carried onto x1: 29, on the equilibrium "
-                       "from rest there to 8e-7 points): about 2 h alone, not run yet "
-                       "(PERFORMANCE.md, 'Continued')"),
+          twice_limit=("from rest not run to its end: x2 is 1 032 240 DOFs; started out of "
+                       "core, it factored its 1.70e9 entries (12.9 GB on disk) every 2.5-3 "
+                       "min on 2 ranks and finished no load step in 14 min, where the check "
+                       f"at x1 took 74 Newton iterations: 3-4 h ({_NEEDS})"
+                       f"{_continued('114 min alone, 26 shifted steps')}"),
           twice_continued=True),
     Scene(4, "disk_cone_axi", "disk_cone_axi", "(R, Z) section, axisymmetric", _SAME,
           group="model"),
