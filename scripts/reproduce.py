@@ -150,7 +150,7 @@ _CUBE_CARRIED = ("not run: x2 is 352 947 DOFs; continued from x1, Newton diverge
                  "iterations from the carried start, and the shifted steps did not settle it "
                  "in 20 min (a step of about one element left K + 1180 M indefinite); from "
                  "rest 44-77 Newton iterations at x1's count, 1.4 min a factorisation: 1-2 h "
-                 "(PERFORMANCE.md, 'Continued')")
+                 "(PERFORMANCE.md, 'Continued'; run when named: `--only NAME --twice`)")
 # the cube's rows whose carried start Newton's method takes (the same x2 as these)
 _CUBE_TAKES = ("not run: continued from x1 on 352 947 DOFs, 16-34 min on 2 ranks where "
                "Newton's method takes the carried start, about an hour where the shifted "

@@ -657,6 +657,9 @@ def test_reproduce_says_what_a_cube_row_s_missing_check_takes(tmp_path):
         cell = reproduce._twice(scene, tmp_path / scene.name, verified_once)
         if scene.group == "cube":
             assert "352 947 DOFs" in cell
-            assert "`--cube --twice`" in cell or "1-2 h" in cell  # run, or only when named
+            if scene.twice_limit:  # run only when named
+                assert "1-2 h" in cell and "`--only NAME --twice`" in cell
+            else:
+                assert "`--cube --twice`" in cell
         else:
             assert "--cube" not in cell
