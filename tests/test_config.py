@@ -137,6 +137,58 @@ def test_incompressible_takes_one_value_less():
         from_dict(raw)
 
 
+# wrong values of every kind: a word, a negative number, a list, a mapping, nothing
+_WRONG = ("not_a_choice", "-1", "[1, 2]", "{a: 1}", "null")
+
+
+def _leaf_keys() -> list[str]:
+    import dataclasses
+
+    from shapegrowth.config import Config
+    from shapegrowth.config.schema import field_paths
+
+    return [key for key, tp in field_paths(Config).items()
+            if not any(dataclasses.is_dataclass(a) for a in (tp, *getattr(tp, "__args__", ())))]
+
+
+def test_every_wrong_value_of_every_key_is_a_config_error_naming_a_key(tmp_path):
+    """Each key of the schema set to each wrong value (on a box, a tube and a cube): the
+    config loads or raises ConfigError whose lines each name a key; no other exception (a
+    wrong geometry.kind once ended in a KeyError of the cross-field rules)."""
+    import yaml
+
+    keys = _leaf_keys()
+    assert "geometry.kind" in keys and "growth.frame" in keys and len(keys) > 80
+    bases = [yaml.safe_load(BASE),
+             {"name": "t", "geometry": {"kind": "tube", "length": 3.0, "radius": 1.0,
+                                        "thickness": 0.1}, "mesh": {"size": 0.5},
+              "boundary": {"clamp": "x1_min"}},
+             {"name": "t", "geometry": {"kind": "cube", "side": 1.0}, "mesh": {"size": 0.5},
+              "boundary": {"clamp": "rigid"}}]
+    refused = 0
+    for raw in bases:
+        for key in keys:
+            for value in _WRONG:
+                try:
+                    from_dict(raw, [f"{key}={value}"])
+                except ConfigError as err:
+                    refused += 1
+                    assert err.problems, key
+                    for line in err.problems:
+                        head = line.split(":", 1)[0]
+                        assert line.count("\n") == 0 and " " not in head.strip("-"), (key, line)
+    assert refused > 2 * len(keys)
+
+
+def test_a_kind_that_is_not_listed_is_one_line_naming_the_key():
+    raw = {"name": "t", "geometry": {"kind": "file", "length": 1.0}, "mesh": {"size": 0.5},
+           "boundary": {"clamp": "x1_min"}}
+    with pytest.raises(ConfigError) as err:
+        from_dict(raw)
+    assert err.value.problems == ["geometry.kind: 'file' is not allowed (allowed: box, tube, "
+                                  "annulus, cylinder_shell, rectangle, cube)"]
+
+
 def test_cli_validate_exit_codes(tmp_path, capsys):
     assert run_cli("validate", CONFIGS / "beam_bend.yaml") == 0
     bad = write(tmp_path, BASE.replace("size: 0.05", "size: -1"))

@@ -147,14 +147,19 @@ def _convert(value: Any, tp: Any, path: str, errors: list[str]) -> Any:
             if len(value) != len(args):
                 raise _Invalid
             item_types = list(args)
-        items = []
-        for i, (item, item_tp) in enumerate(zip(value, item_types)):
-            items.append(convert(item, item_tp, f"{path}[{i}]", errors))
+        items = [convert(item, item_tp, f"{path}[{i}]", errors)
+                 for i, (item, item_tp) in enumerate(zip(value, item_types))]
+        if any(item is None and not _accepts_none(item_tp)
+               for item, item_tp in zip(items, item_types)):
+            return None  # an item's problem is recorded; no rule sees the broken whole
         return tuple(items)
     if origin is dict:
         if not isinstance(value, dict):
             raise _Invalid
-        return {str(k): convert(v, args[1], f"{path}.{k}", errors) for k, v in value.items()}
+        entries = {str(k): convert(v, args[1], f"{path}.{k}", errors) for k, v in value.items()}
+        if not _accepts_none(args[1]) and any(v is None for v in entries.values()):
+            return None
+        return entries
     raise TypeError(f"unsupported annotation {tp!r} at {path}")  # a schema bug, not user input
 
 
@@ -176,8 +181,8 @@ def build(cls: Any, raw: dict[str, Any], path: str, errors: list[str]) -> Any:
                 errors.append(f"{key_path}: required ({f.metadata.get('help', '')})")
             continue
         value = convert(raw[name], hints[name], key_path, errors)
-        if value is not None:
-            _check_range(value, f.metadata, key_path, errors)
+        if value is not None and not _check_range(value, f.metadata, key_path, errors):
+            continue  # a value outside its choices is not kept: no later rule sees it
         values[name] = value
     try:
         return cls(**{k: v for k, v in values.items() if v is not None or _accepts_none(hints[k])})
@@ -189,20 +194,24 @@ def _accepts_none(tp: Any) -> bool:
     return typing.get_origin(tp) in (Union, types.UnionType) and type(None) in typing.get_args(tp)
 
 
-def _check_range(value: Any, meta: Mapping[str, Any], path: str, errors: list[str]) -> None:
+def _check_range(value: Any, meta: Mapping[str, Any], path: str, errors: list[str]) -> bool:
+    """Append ``value``'s problems with its choices or bounds; False where it is not one of
+    its choices (the rules that depend on a choice, e.g. a geometry kind's parameters, must
+    not see it)."""
     choices = meta.get("choices")
     if choices and value not in choices:
         allowed = ", ".join(map(str, choices))
         errors.append(f"{path}: {_show(value)} is not allowed (allowed: {allowed})")
-        return
+        return False
     if not isinstance(value, (int, float)) or isinstance(value, bool):
-        return
+        return True
     checks = (("gt", lambda a, b: a > b, ">"), ("ge", lambda a, b: a >= b, ">="),
               ("lt", lambda a, b: a < b, "<"), ("le", lambda a, b: a <= b, "<="))
     for key, ok, sign in checks:
         bound = meta.get(key)
         if bound is not None and not ok(value, bound):
             errors.append(f"{path}: {_show(value)} must be {sign} {bound}")
+    return True
 
 
 def field_paths(cls: Any, prefix: str = "") -> dict[str, Any]:
