@@ -189,6 +189,25 @@ def test_a_kind_that_is_not_listed_is_one_line_naming_the_key():
                                   "annulus, cylinder_shell, rectangle, cube)"]
 
 
+@pytest.mark.parametrize("kind, cells, dim, degree", [
+    ("tube", "hex", 3, 2), ("annulus", "hex", 3, 2), ("cylinder_shell", "hex", 3, 2),
+    ("box", "hex", 3, 1), ("tube", "simplex", 3, 1), ("annulus", "hex", 2, 1)])
+def test_the_growth_degree_defaults_to_two_on_curved_hexahedra(kind, cells, dim, degree):
+    geometry = {"tube": {"length": 3.0, "radius": 1.0, "thickness": 0.1},
+                "annulus": {"radius": 1.0, "inner_radius": 0.3, "thickness": 0.05},
+                "cylinder_shell": {"radius": 1.0, "height": 0.7, "thickness": 0.05},
+                "box": {"length": 1.0, "width": 0.1, "thickness": 0.02}}[kind]
+    raw = {"name": "t", "geometry": {"kind": kind, **geometry},
+           "mesh": {"size": 0.5, "cells": cells},
+           "model": {"dim": dim} | ({"reduction": "axisymmetric"} if dim == 2 else {}),
+           "boundary": {"clamp": "inner_rim" if kind == "annulus" else
+                        "bottom_rim" if kind == "cylinder_shell" else "x1_min"}}
+    raw["growth"] = {"frame": "cylindrical" if kind == "annulus" else "cartesian"}
+    assert from_dict(raw).growth.degree == degree
+    raw["growth"]["degree"] = 3 - degree  # a degree given is kept
+    assert from_dict(raw).growth.degree == 3 - degree
+
+
 def test_cli_validate_exit_codes(tmp_path, capsys):
     assert run_cli("validate", CONFIGS / "beam_bend.yaml") == 0
     bad = write(tmp_path, BASE.replace("size: 0.05", "size: -1"))

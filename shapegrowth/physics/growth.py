@@ -57,8 +57,8 @@ class Growth:
     @classmethod
     def from_config(cls, mesh, cfg: Config) -> Growth:
         g = cfg.growth
-        growth = cls(mesh, cfg.growth_dim, g.frame, g.degree, g.eigenvalues.incompressible,
-                     cfg.section)
+        growth = cls(mesh, cfg.growth_dim, g.frame, resolved(g.degree),
+                     g.eigenvalues.incompressible, cfg.section)
         growth.initialise(cfg)
         return growth
 
