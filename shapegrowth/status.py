@@ -1,5 +1,5 @@
 """How a solve or a run ended: ``converged``, ``max_iterations`` or ``failed: <reason>``
-(summary.json's ``status``, shared/CONTRACT.md), owned here and nowhere else."""
+(summary.json's ``status``), owned here and nowhere else."""
 
 from __future__ import annotations
 

@@ -147,3 +147,63 @@ def test_readme_module_table_names_every_module():
     assert not missing, f"README's module table lacks {sorted(missing)}"
     stale = {n for n in named if "/" in n and n not in modules}
     assert not stale, f"README's module table names modules that do not exist: {sorted(stale)}"
+
+
+CONFIGS_DIR = ROOT / "configs"
+
+
+def _comment_and_key_lines(path: Path) -> tuple[int, int, int]:
+    """(comment lines, key lines, comment lines before the first key) of a YAML file."""
+    comments = keys = opening = 0
+    for line in path.read_text().splitlines():
+        if not line.strip():
+            continue
+        if line.lstrip().startswith("#"):
+            comments += 1
+            opening += keys == 0
+        else:
+            keys += 1
+    return comments, keys, opening
+
+
+@pytest.mark.parametrize("config", sorted(CONFIGS_DIR.rglob("*.yaml")),
+                         ids=lambda p: str(p.relative_to(CONFIGS_DIR)))
+def test_a_config_to_copy_opens_with_six_comment_lines_at_most_and_is_mostly_keys(config):
+    """A user copies a shipped config: it opens with at most 6 comment lines (the scene, the
+    reading, where its numbers are) and has no more comment lines than key lines; the
+    derivations and measurements live in docs/SCENES.md and the pages it links."""
+    comments, keys, opening = _comment_and_key_lines(config)
+    assert opening <= 6, f"{config.name}: opens with {opening} comment lines"
+    assert comments <= keys, f"{config.name}: {comments} comment lines for {keys} key lines"
+
+
+_CITED_MD = re.compile(r"[A-Za-z0-9_./-]*[A-Za-z0-9_-]+\.md\b")
+
+
+def _tracked_text_files() -> list[Path]:
+    listed = subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True)
+    if listed.returncode != 0:
+        pytest.skip("not a git checkout")
+    suffixes = {".py", ".md", ".yaml", ".yml", ".sh", ".toml", ".txt", ""}
+    return [ROOT / name for name in listed.stdout.split()
+            if Path(name).suffix in suffixes and (ROOT / name).is_file()
+            and not name.startswith("docs/img/")]
+
+
+def test_every_cited_markdown_file_is_in_the_repository():
+    """A clone holds every page its files cite: a name ending in .md resolves beside the
+    citing file, at the repository's root or in docs/ (run outputs under results/ aside)."""
+    missing = []
+    for path in _tracked_text_files():
+        text = path.read_text(errors="replace")
+        for match in _CITED_MD.finditer(text):
+            name = match.group()
+            if name.startswith(("results/", "./results/")) or "/results/" in name:
+                continue
+            if path.suffix == ".py" and match.start() and text[match.start() - 1] in "\"'":
+                continue  # a file a script writes or reads, not a page cited
+            name = name.lstrip("./") if name.startswith("./") else name
+            places = (path.parent / name, ROOT / name, ROOT / "docs" / name)
+            if not any(p.is_file() for p in places):
+                missing.append(f"{path.relative_to(ROOT)}: {name}")
+    assert not missing, f"cited but not in the repository: {missing}"

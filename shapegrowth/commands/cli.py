@@ -159,7 +159,7 @@ def _mesh(cfg, args) -> int:
 
 
 def _exit_status(summary) -> int:
-    """A summary's exit status: 1 for a failed solve or run, else 0 (CONTRACT.md)."""
+    """A summary's exit status: 1 for a failed solve or run, else 0 (the CLI's exit codes)."""
     return EXIT_FAILED if summary.status.is_failure else EXIT_OK
 
 

@@ -28,7 +28,7 @@ BOUNDARIES: dict[str, tuple[str, ...]] = {
     "rectangle": ("x1_min", "x1_max", "x2_min", "x2_max"),
     "cube": ("x1_min", "x1_max", "x2_min", "x2_max", "x3_min", "x3_max"),
 }
-# objective.compare's face names beside the boundaries' own (shared/CONTRACT.md)
+# objective.compare's face names beside the boundaries' own (docs/CONFIG.md)
 FACE_ALIASES: dict[str, dict[str, str]] = {
     "box": {"top": "x3_max", "bottom": "x3_min"},
     "annulus": {"top": "x3_max", "bottom": "x3_min"},

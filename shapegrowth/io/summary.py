@@ -1,5 +1,5 @@
 """summary.json as a type: :class:`RunSummary`, written by ``solve`` and ``run``, read by
-``study`` and the scripts.  Its JSON keys are shared/CONTRACT.md's; ``to_json`` writes them
+``study`` and the scripts.  Its JSON keys are the users' contract (scripts read them); ``to_json`` writes them
 flat (the forward solve's and the optimisation's own measures beside the common ones) and
 ``from_json`` reads them back."""
 

@@ -1,7 +1,7 @@
 """The gmsh builders of the reference bodies (rank 0 only; geometry.py caches and reads
 their meshes).
 
-Placement (CONTRACT.md):
+Placement (every config and target map relies on it):
 
 * ``box``: X1 in [0, L], X2 in [-w/2, w/2], X3 in [-t/2, t/2]; unstructured
   triangles of size h in the X1-X2 plane, extruded through the thickness in
