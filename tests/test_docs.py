@@ -6,7 +6,8 @@
   ``shapegrowth`` command line parses with the CLI's own parser and names files that exist,
   a script exists.  A shell block runs for minutes to hours (``make run``, a reproduction),
   so none is executed; each says why in a ``<!-- not run: REASON -->`` line above it.
-* README's module table names every module of the package.
+* docs/LAYERS.md is generated from the package; no file cites a page the repository lacks;
+  a shipped config is mostly keys.
 """
 
 from __future__ import annotations
@@ -135,18 +136,34 @@ def test_python_blocks_run_as_written(block, tmp_path):
     assert done.returncode == 0, f"{block.id}\n{done.stderr[-3000:]}"
 
 
-def test_readme_module_table_names_every_module():
-    text = (ROOT / "README.md").read_text()
-    table = text.split("## Where things are", 1)[1].split("\n## ", 1)[0]
-    named = set(re.findall(r"`([\w/]+\.py)`", table))
-    # a row may name siblings by file name alone: `bench.py` (`bench_runs.py`, ...)
+def _layers_script():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("layers_reference",
+                                                  ROOT / "scripts" / "layers_reference.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_layer_map_is_generated_from_the_package_and_names_every_module():
+    """docs/LAYERS.md is scripts/layers_reference.py's text (regenerate it after adding a
+    module or changing a docstring's first sentence); it names every module once, and the
+    paper's equations name modules that exist."""
+    script = _layers_script()
+    text = (ROOT / "docs" / "LAYERS.md").read_text()
+    assert text == script.layers_markdown(), "docs/LAYERS.md is stale: run " \
+        "scripts/layers_reference.py"
     package = ROOT / "shapegrowth"
     modules = {str(p.relative_to(package)) for p in package.rglob("*.py")
-               if p.name not in ("__init__.py", "__main__.py")}
-    missing = {m for m in modules if m not in named and Path(m).name not in named}
-    assert not missing, f"README's module table lacks {sorted(missing)}"
-    stale = {n for n in named if "/" in n and n not in modules}
-    assert not stale, f"README's module table names modules that do not exist: {sorted(stale)}"
+               if p.name != "__init__.py"}
+    named = re.findall(r"^\| `([\w/]+\.py)` \|", text, flags=re.MULTILINE)
+    assert sorted(named) == sorted(modules)
+    assert set(script.PAPER) <= modules
+    assert {layer for layer, _ in script.LAYERS} == {
+        str(p.relative_to(package)) for p in package.iterdir()
+        if p.is_dir() and (p / "__init__.py").is_file()} | {""}
 
 
 CONFIGS_DIR = ROOT / "configs"
@@ -207,3 +224,41 @@ def test_every_cited_markdown_file_is_in_the_repository():
             if not any(p.is_file() for p in places):
                 missing.append(f"{path.relative_to(ROOT)}: {name}")
     assert not missing, f"cited but not in the repository: {missing}"
+
+
+def test_the_readme_s_first_run_is_the_shipped_example():
+    """README's own-body block is configs/examples/strip_quarter.yaml, key for key."""
+    text = (ROOT / "README.md").read_text()
+    block = text.split("```yaml\n", 1)[1].split("```", 1)[0]
+    shipped = yaml.safe_load((ROOT / "configs" / "examples" / "strip_quarter.yaml").read_text())
+    assert yaml.safe_load(block) == shipped
+
+
+def _paragraphs(text: str) -> list[str]:
+    """Prose paragraphs of a Markdown text: fenced blocks, tables and headings left out."""
+    out, current, fenced = [], [], False
+    for line in text.splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+            continue
+        if fenced or line.startswith(("|", "#", "<!--", "![")):
+            line = ""
+        if line.strip():
+            current.append(line)
+        elif current:
+            out.append(" ".join(current))
+            current = []
+    if current:
+        out.append(" ".join(current))
+    return out
+
+
+def test_the_readme_is_short_and_its_paragraphs_too():
+    """A user's README: at most 200 lines, no paragraph over 120 words, and no shape error
+    of its own (numbers live in docs/RESULTS.md, which it links)."""
+    text = (ROOT / "README.md").read_text()
+    assert len(text.splitlines()) <= 200
+    long = [p[:60] for p in _paragraphs(text) if len(p.split()) > 120]
+    assert not long, long
+    assert not re.findall(r"\d+(?:\.\d+)? %", text), "README quotes a percentage"
+    assert "docs/RESULTS.md" in text

@@ -386,7 +386,11 @@ def test_reproduce_writes_results_from_the_run_folders(tmp_path):
     assert took and int(took[1]) == round((free["wall_time_s"] + fixed["wall_time_s"]) / 60)
     assert "The 2 refined-twice checks (`--twice`) took " in text
     assert "rho_H(square_circle_fixed) / rho_H(square_circle_free) = **" in text
-    assert "Above the floor rho_H(T, T) = " in text  # two iterations: far above it
+    assert "Second, above the floor rho_H(T, T) = " in text  # two iterations: far above it
+    assert "a floor 10 % lower or higher moves it across" in text
+    # the readings: each of scenes 1-5 with its printed target's floor beside the reading
+    assert "## On the printed targets and on the readings" in text
+    assert "| 2 | (5.15): the mid-line ring about the origin |" in text
     assert (tmp_path / "img" / "results" / "square_circle_free_shape.png").is_file()
     again = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
     assert again.returncode == 0 and "reproduce: square" not in again.stdout
@@ -482,6 +486,20 @@ def test_reproduce_says_where_self_reported_and_refined_part(tmp_path):
     assert reproduce._agreement(dataclasses.replace(apart, hausdorff_final=0.0)) == ""
 
 
+def test_results_md_says_which_numbers_are_on_a_reading():
+    """docs/RESULTS.md's readings section is the generator's, made from its own table: for
+    scenes 2-5 the printed target's floor and best verified number beside the reading's,
+    and the headline sentence says "on the project's readings"."""
+    reproduce = _reproduce_module()
+    text = (ROOT / "docs" / "RESULTS.md").read_text()
+    assert reproduce.with_readings(text) == text
+    verified = reproduce.tabled_verified(text)
+    assert sorted(verified) == [1, 2, 3, 4, 5]
+    assert "on the project's readings** of scenes 2, 3, 4, 5" in text
+    for number in (2, 5):  # a printed target without thickness: its floor above 1 %
+        assert "**" in reproduce.READINGS[number].floor
+
+
 def test_reproduce_tables_the_cube_beside_the_square(tmp_path):
     """RESULTS.md: the 3D cube's fixed/free ratio from each start, raw and above the cube's
     own floor rho_H(T, T), beside the paper's and the square's; a free frame that ends worse
@@ -504,11 +522,14 @@ def test_reproduce_tables_the_cube_beside_the_square(tmp_path):
     floor = reproduce.target_floor(reproduce.finished(out / "cube_cylinder_fixed"))
     assert 0 < floor < 0.1
     line = re.search(r"- from the target's metric: rho_H 0.2 fixed, 0.1 free, ratio \*\*2\*\*; "
-                     r"above the floor rho_H\(T, T\) = ([0-9.e-]+): \*\*([0-9.]+)\*\* "
+                     r"above the floor rho_H\(T, T\) = ([0-9.e-]+): ([0-9.]+) \(a floor 10 % "
+                     r"lower or higher moves it across ([0-9.]+)-([0-9.]+)\) "
                      r"\(verified 9.80 % fixed, 2.80 % free; the free frame ends no worse, "
                      r"verified\)", text)
     assert line, text
     assert float(line[2]) == pytest.approx((0.2 - floor) / (0.1 - floor), rel=1e-3)
+    assert float(line[3]) == pytest.approx((0.2 - 0.9 * floor) / (0.1 - 0.9 * floor), rel=1e-2)
+    assert float(line[4]) == pytest.approx((0.2 - 1.1 * floor) / (0.1 - 1.1 * floor), rel=1e-2)
     assert "beside the paper's 13.8889" in text
     assert "| 6 | cube_cylinder_free | 3D cube, free frame (three angles) | **2.80 %** |" in text
     assert "Not in this reproduction: cube_cylinder_fixed_uniform, cube_cylinder_free_staged" \

@@ -28,7 +28,8 @@ SLOW_SCENES = {"tube_helix", "disk_cone",  # 22 s and 17 s (their first state fr
 def test_scene_config_runs(scene, tmp_path):
     config = CONFIGS / f"{scene}.yaml"
     assert run_cli("validate", config, "-q") == 0
-    assert "Reading" in config.read_text() or "Readings" in config.read_text()
+    header = config.read_text().split("\nname:", 1)[0].lower()
+    assert "reading" in header and "docs/scenes.md" in header  # the reading, and its page
     # one level of the config's coarse-to-fine ones: a smoke test (levels: tests/test_levels);
     # no verification (tests/test_verify.py): two iterations leave a growth far from the
     # target, which the disk and the tube took 3 minutes each to grow from rest on a refined
@@ -50,11 +51,11 @@ REDUCED = {"beam_wave_2d": "beam_wave", "beam_ring_2d": "beam_ring",
 
 @pytest.mark.parametrize("reduced", list(REDUCED))
 def test_reduced_scene_config_runs_and_lifts_to_its_3d_config(reduced, tmp_path):
-    """Each reduced config states its lifted number, lifts to its scene's 3D config, and
-    runs (two iterations on a coarse section, the lift left to tests/test_reduced.py)."""
+    """Each reduced config says it is verified lifted onto its scene's 3D config, lifts to
+    it, and runs (two iterations on a coarse section, the lift left to tests/test_reduced.py)."""
     config = CONFIGS / f"{reduced}.yaml"
     text = config.read_text()
-    assert "lifted onto" in text
+    assert "lifted onto" in text.split("\nname:", 1)[0].lower()
     assert yaml.safe_load(text)["verify"]["lift"] == f"configs/{REDUCED[reduced]}.yaml"
     code = run_cli("run", config, "--out", tmp_path, "-q", "--set", "optimizer.max_iterations=2",
                    "--set", "mesh.size=0.05", "--set", "mesh.layers=2",

@@ -1,7 +1,7 @@
 """summary.json as a type: :class:`RunSummary`, written by ``solve`` and ``run``, read by
-``study`` and the scripts.  Its JSON keys are the users' contract (scripts read them); ``to_json`` writes them
-flat (the forward solve's and the optimisation's own measures beside the common ones) and
-``from_json`` reads them back."""
+``study`` and the scripts.  Its JSON keys are the users' contract (their scripts read
+them); ``to_json`` writes them flat (the forward solve's and the optimisation's own
+measures beside the common ones) and ``from_json`` reads them back."""
 
 from __future__ import annotations
 
