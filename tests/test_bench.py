@@ -142,3 +142,30 @@ def test_bad_sizes_and_rank_counts_name_their_flag(flag, value, tmp_path):
     done = run_subprocess(["bench", flag, value, "--out", tmp_path], timeout=60)
     assert done.returncode == 2
     assert f"argument {flag}: " in done.stderr.strip().splitlines()[-1]
+
+
+def test_the_command_line_has_no_hidden_option():
+    """Every option of every command is in its --help: the benchmark's per-case worker is a
+    module of its own (shapegrowth.commands.bench_case), not a hidden flag."""
+    import argparse
+
+    from shapegrowth.commands.cli import build_parser
+
+    parser = build_parser()
+    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, sub in commands.choices.items():
+        hidden = [a.dest for a in sub._actions if a.help == argparse.SUPPRESS]
+        assert not hidden, (name, hidden)
+
+
+def test_a_bench_case_worker_with_a_bad_config_is_one_line(tmp_path):
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-m", "shapegrowth.commands.bench_case",
+                           str(CONFIGS / "tiny" / "beam_wave.yaml"), "--out", str(tmp_path),
+                           "--set", "mesh.size=-1"], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == ["error: mesh.size: -1.0 must be > 0"]
+    assert not (tmp_path / "case.json").exists()

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import logging
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -48,6 +49,8 @@ log = logging.getLogger(__name__)
 BEAM_WAVE_GROWTH = ("((1 + (0.94*cos(2*pi*x1))**2)**0.5"
                     "*(1 - x3*(21.2*exp(-(x1/0.05)**2) - 5.92*sin(2*pi*x1))))**2")
 DEFAULT_SIZES = (0.05, 0.025, 0.0125)
+# the process that measures one case (a module of its own, not a command-line flag)
+CASE_WORKER = "shapegrowth.commands.bench_case"
 DEFAULT_CONFIG = "beam_wave.yaml"  # in launch.shipped_configs()
 DEFAULT_OVERRIDES = [f'growth.eigenvalues.initial=["{BEAM_WAVE_GROWTH}", 1.0, 1.0]']
 
@@ -159,12 +162,11 @@ def run_case_process(config: Path, overrides: list[str], size: float, out: Path,
     """Runs one case in a fresh process (under mpirun when ranks > 1) and reads its json.
     ``one_thread``: one BLAS and one numba thread (what each MPI rank gets)."""
     out.mkdir(parents=True, exist_ok=True)
-    args = launch.with_sets(["bench", config, "--case", "--out", out, "--quiet"],
-                            [f"mesh.size={size}", *overrides])
+    args = launch.with_sets([config, "--out", out], [f"mesh.size={size}", *overrides])
     # under mpirun one BLAS thread per rank (numba's is set by the package per rank)
     env = {"OPENBLAS_NUM_THREADS": "1"} if ranks > 1 else None
-    done = launch.launch(args, ranks, one_thread=one_thread, env=env, capture_output=True,
-                         text=True)
+    done = launch.launch(args, ranks, program=[sys.executable, "-m", CASE_WORKER],
+                         one_thread=one_thread, env=env, capture_output=True, text=True)
     if done.returncode != 0:
         said = [line for line in done.stderr.splitlines() if line.startswith("error: ")]
         if said:  # the case's own one-line error

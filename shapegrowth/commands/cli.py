@@ -103,7 +103,6 @@ def build_parser() -> argparse.ArgumentParser:
                        help="strong scaling of the largest case over these rank counts, "
                             "one thread per rank, with Amdahl's law fitted (bench.json "
                             "`scaling`), e.g. 1,2,4")
-    bench.add_argument("--case", action="store_true", help=argparse.SUPPRESS)
     return parser
 
 
@@ -235,19 +234,25 @@ def _study(cfg, args) -> int:
     return EXIT_FAILED if failed else EXIT_OK
 
 
-def _bench(cfg, args) -> int:
-    from ..io import files as io
+def _bench(args) -> int:
+    """``bench``: the per-iteration benchmark of a config (default: the shipped scene 1 at
+    the benchmark's growth), its strong scaling, or whole runs of the shipped configs."""
+    from ..config import load
     from . import bench
 
     out = args.out or Path("results/bench")
-    if args.runs is not None:
-        return _bench_runs(args, out)
-    if args.case:  # one case in this process (launched by the harness below)
-        io.write_json(out / "case.json", bench.measure_case(cfg, args.steps))
-        return EXIT_OK
+    if args.runs is not None:  # whole runs of shipped configs: no config of its own
+        return _bench_runs(args.runs, args.ranks, args.overrides, out)
+    config, overrides = args.config, list(args.overrides)
+    if config is None:
+        from .launch import shipped_configs
+
+        config = str(shipped_configs() / bench.DEFAULT_CONFIG)
+        overrides = bench.DEFAULT_OVERRIDES + overrides
+    load(config, overrides)  # every problem of the config before any case starts
     if args.scaling is not None:
-        return _bench_scaling(args, out)
-    result = bench.run_bench(Path(args.config), args.overrides, out,
+        return _bench_scaling(config, overrides, args.sizes, args.scaling, out)
+    result = bench.run_bench(Path(config), overrides, out,
                              args.sizes or list(bench.DEFAULT_SIZES), args.ranks)
     r = result["ratios"]
     log.info("gradient/forward %.3f, rho_H/iteration %.3f, Newton/reference %.2f, "
@@ -263,29 +268,28 @@ def _bench(cfg, args) -> int:
     return EXIT_OK
 
 
-def _bench_scaling(args, out: Path) -> int:
+def _bench_scaling(config: str, overrides: list[str], sizes: list[float] | None,
+                   ranks: list[int], out: Path) -> int:
     from . import bench, bench_scaling
 
-    size = min(args.sizes or bench.DEFAULT_SIZES)
-    table = bench_scaling.run_scaling(bench.run_case_process, Path(args.config),
-                                      args.overrides, out, size, args.scaling)
+    size = min(sizes or bench.DEFAULT_SIZES)
+    table = bench_scaling.run_scaling(bench.run_case_process, Path(config), overrides, out,
+                                      size, ranks)
     log.info("wrote %s", bench.update_bench_json(out, {"scaling": table}))
     return EXIT_OK
 
 
-def _bench_runs(args, out: Path) -> int:
+def _bench_runs(runs: str, ranks: int, overrides: list[str], out: Path) -> int:
     from . import bench, bench_runs
 
-    only = [] if args.runs == "all" else [n for n in args.runs.split(",") if n]
-    # the per-iteration bench's default growth belongs to its own config, not to the runs
-    overrides = args.runs_overrides
-    timings = bench_runs.run_runs(out, args.ranks, only, overrides)
+    only = [] if runs == "all" else [n for n in runs.split(",") if n]
+    timings = bench_runs.run_runs(out, ranks, only, overrides)
     log.info("wrote %s", bench.update_bench_json(out, {"runs": bench_runs.as_json(timings)}))
     return EXIT_OK
 
 
 COMMANDS = {"validate": _validate, "mesh": _mesh, "solve": _solve, "gradcheck": _gradcheck,
-            "run": _run, "lift": _lift, "study": _study, "bench": _bench}
+            "run": _run, "lift": _lift, "study": _study}
 
 
 def _join_negative_values(argv: list[str]) -> list[str]:
@@ -311,19 +315,9 @@ def main(argv: list[str] | None = None) -> int:
 
     level = logging.WARNING if args.quiet else logging.DEBUG if args.verbose else logging.INFO
     logs.configure(level)
-    if args.command == "bench" and args.runs is not None:  # no config of its own
-        args.runs_overrides, args.overrides = args.overrides, []
-    if args.command == "bench" and args.config is None:
-        from .bench import DEFAULT_CONFIG, DEFAULT_OVERRIDES
-        from .launch import shipped_configs
-
-        try:
-            args.config = str(shipped_configs() / DEFAULT_CONFIG)
-        except InputError as err:
-            print(f"error: {err}", file=sys.stderr)
-            return EXIT_BAD_INPUT
-        args.overrides = DEFAULT_OVERRIDES + args.overrides
     try:
+        if args.command == "bench":  # its config is optional: the shipped scene's default
+            return _bench(args)
         if args.command == "figure":  # the run's own config
             return _figure(args)
         if args.command == "verify":
