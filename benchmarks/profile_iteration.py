@@ -20,7 +20,7 @@ import numpy as np
 from shapegrowth.commands import bench
 from shapegrowth.config import load
 from shapegrowth.optim.problem import ReducedFunctional
-from shapegrowth.optim.verification import smooth_direction
+from shapegrowth.optim.taylor import smooth_direction
 from shapegrowth.physics.boundary import body_box
 from shapegrowth.physics.model import ForwardModel
 

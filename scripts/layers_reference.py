@@ -17,8 +17,9 @@ PACKAGE = ROOT / "shapegrowth"
 # top to bottom: each layer imports only those below it (tests/test_architecture.py)
 LAYERS = (
     ("commands", "the command line and its commands: exit statuses, run folders, console"),
-    ("io", "what a run writes and reads back: summary.json, checkpoints, fields, figures"),
-    ("optim", "the reduced functional J(m), dJ/dm, the optimiser's driver, verification"),
+    ("optim", "the reduced functional J(m), dJ/dm, the optimiser's driver and its "
+              "callbacks (exact resume), the verification"),
+    ("io", "what a run writes and reads back: summary.json and its records, fields, figures"),
     ("shape", "bodies as point clouds, targets, the smooth Hausdorff distance and its kernels"),
     ("physics", "geometry and meshes, material, growth, filters, the state and its solvers"),
     ("config", "the typed schema, validation (ConfigError), safe expressions"),
@@ -64,7 +65,7 @@ config --> physics/geometry --> physics/growth --> physics/state --> shape/cloud
                                     |                                     v
 optim/driver <-- optim/problem <-- optim/objective J (5.6) <-- shape/hausdorff rho_H (2.9)
  (NLopt)          m -> filter -> solve -> J;  dJ/dm <- filter^T <- optim/adjoint (5.12)
- callbacks: io/checkpoint, retry from rest, progress
+ callbacks: optim/checkpoint, retry from rest, progress
 ```
 """
 

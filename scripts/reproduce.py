@@ -63,8 +63,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from shapegrowth.commands import launch
+from shapegrowth.io.records import Reverified
 from shapegrowth.io.summary import RunSummary, verified_from_json
-from shapegrowth.optim.refined import Reverified
 from shapegrowth.physics.stability import unstable_since
 
 ROOT = Path(__file__).resolve().parent.parent

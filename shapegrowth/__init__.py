@@ -36,7 +36,7 @@ _API = {
     "SmoothHausdorff": ("shapegrowth.shape.hausdorff", "SmoothHausdorff"),
     "Objective": ("shapegrowth.optim.objective", "Objective"),
     "ReducedFunctional": ("shapegrowth.optim.problem", "ReducedFunctional"),
-    "taylor_test": ("shapegrowth.optim.verification", "taylor_test"),
+    "taylor_test": ("shapegrowth.optim.taylor", "taylor_test"),
     "Driver": ("shapegrowth.optim.driver", "Driver"),
     "DriverSettings": ("shapegrowth.optim.driver", "DriverSettings"),
     "Callback": ("shapegrowth.optim.interface", "Callback"),
@@ -44,7 +44,7 @@ _API = {
     "Outcome": ("shapegrowth.status", "Outcome"),
     "RunSummary": ("shapegrowth.io.summary", "RunSummary"),
     "lift": ("shapegrowth.optim.lift", "lift"),
-    "Lifted": ("shapegrowth.optim.lift", "Lifted"),
+    "Lifted": ("shapegrowth.io.records", "Lifted"),
     "optimize": ("shapegrowth.commands.run", "run_optimization"),
     "solve": ("shapegrowth.commands.solve", "solve_forward"),
     "Sweep": ("shapegrowth.commands.study", "Sweep"),
@@ -105,13 +105,14 @@ if TYPE_CHECKING:
     from .config import load as load_config
     from .errors import ConfigError, InputError, StateSolveError
     from .io.plotting import draw, surface
+    from .io.records import Lifted
     from .io.summary import RunSummary
     from .optim.driver import Driver, DriverSettings
     from .optim.interface import Callback
-    from .optim.lift import Lifted, lift
+    from .optim.lift import lift
     from .optim.objective import Objective
     from .optim.problem import ReducedFunctional
-    from .optim.verification import taylor_test
+    from .optim.taylor import taylor_test
     from .physics.growth import Growth
     from .physics.model import ForwardModel, build_model
     from .physics.state import StateProblem

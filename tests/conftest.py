@@ -128,7 +128,7 @@ def taylor_in_points(H, a, b, dp, eps0: float):
     """Taylor test of rho_H = H(a + m, b) in the points of ``a``, along ``dp`` (n, 3)."""
     import numpy as np
 
-    from shapegrowth.optim.verification import taylor_test
+    from shapegrowth.optim.taylor import taylor_test
     from shapegrowth.shape.hausdorff import PointCloud
 
     n = len(a.weights)

@@ -17,7 +17,7 @@ from conftest import ROOT
 
 PACKAGE = ROOT / "shapegrowth"
 LAYERS = {"blas": 0, "compat": 0, "errors": 0, "heap": 0, "logs": 0, "status": 0, "timing": 0, "version": 0, "config": 1, "physics": 2,
-          "shape": 2, "optim": 3, "io": 4, "commands": 5, "": 6, "__main__": 6}
+          "shape": 2, "io": 3, "optim": 4, "commands": 5, "": 6, "__main__": 6}
 
 
 def _modules() -> dict[str, Path]:

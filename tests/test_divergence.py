@@ -9,7 +9,7 @@ import pytest
 from conftest import rank_share
 from mpi4py import MPI
 
-from shapegrowth.optim.verification import taylor_test
+from shapegrowth.optim.taylor import taylor_test
 from shapegrowth.shape.divergence import ShapeDivergence
 from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
 

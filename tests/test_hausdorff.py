@@ -7,7 +7,7 @@ import pytest
 from conftest import rank_share, taylor_in_points
 from mpi4py import MPI
 
-from shapegrowth.optim.verification import taylor_test
+from shapegrowth.optim.taylor import taylor_test
 from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff, exact_hausdorff
 
 RNG = np.random.default_rng(11)

@@ -126,7 +126,7 @@ def test_the_ldlt_factorisation_watches_the_path_by_its_inertia(shared_tmp):
 def _square_pair(linear: str):
     """The square grown unevenly (a stressed equilibrium) on its mesh, solved from rest; and
     the same growth on the mesh refined once, solved there from rest."""
-    from shapegrowth.optim.refined import carried_to, refined_config
+    from shapegrowth.optim.verification import carried_to, refined_config
     from shapegrowth.physics.model import ForwardModel
 
     cfg = sg.load_config(SQUARE, ["growth.eigenvalues.initial=['2 + 0.25*x1*x2', 2.0]",
@@ -153,7 +153,7 @@ def test_a_carried_start_newton_cannot_take_is_settled_by_shifted_steps(linear, 
     to 1e-8 of its largest, stable; in core and out of core; a warm re-solve after them
     converges from its chord predictor.  Where those steps find none
     too, the solve reports both failures and the state is back at the carried start."""
-    from shapegrowth.optim.refined import carried_to
+    from shapegrowth.optim.verification import carried_to
     from shapegrowth.physics import paths
 
     coarse, reference = _square_pair(linear)

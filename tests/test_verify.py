@@ -12,9 +12,10 @@ from conftest import CONFIGS, read_json, run_cli
 from mpi4py import MPI
 
 import shapegrowth as sg
+from shapegrowth.io.records import Verified
 from shapegrowth.optim.lift import verification_model
 from shapegrowth.optim.objective import VERIFY_CLOUD_DEGREE, Objective, verification_clouds
-from shapegrowth.optim.refined import Verified, branch_changed, likely_cause, refined_config
+from shapegrowth.optim.verification import branch_changed, likely_cause, refined_config
 from shapegrowth.physics.transfer import interpolate_between_meshes
 
 ARC = CONFIGS / "tiny" / "beam_arc.yaml"
@@ -93,7 +94,7 @@ def test_a_verified_number_on_an_unstable_state_says_so_beside_it():
     axisymmetric path past the bifurcation (0.68 %, 4 negative eigenvalues): the headline
     carries UNSTABLE where it lost stability; a stable state's headline carries nothing."""
     from shapegrowth.commands.report import verified_text
-    from shapegrowth.optim.lift import Lifted
+    from shapegrowth.io.records import Lifted
     from shapegrowth.physics.stability import Stability
 
     stable = Stability((0.6, 1.2), 0)
@@ -116,7 +117,7 @@ def test_a_verified_number_on_an_unstable_state_says_so_beside_it():
 def test_the_headline_names_the_lifted_model_where_there_is_one():
     """A lifted section leads with its 3D body's number, DOFs, status and stability; the
     check's wall time is the section's and the lift's together."""
-    from shapegrowth.optim.lift import Lifted
+    from shapegrowth.io.records import Lifted
     from shapegrowth.physics.stability import Stability
 
     stable = Stability((0.6, 1.2), 0)
@@ -258,7 +259,7 @@ def _scripted_verify(monkeypatch, relatives):
     """``verify`` replaced (in the checks and in the run) by one that returns the given
     relative errors in turn and records the growth's integral it was asked about."""
     import shapegrowth.commands.run as run
-    import shapegrowth.io.along as along
+    import shapegrowth.optim.verification as along
 
     asked = []
 
@@ -368,7 +369,7 @@ def test_the_verification_checks_det_f_where_the_run_does_and_measures_denser(mo
     """verify() solves the run's own model on the refined mesh (det F checked at the run's
     points) and measures that state with the verification's clouds: the exact distance
     equals an Objective of degree 6 on the same state."""
-    import shapegrowth.optim.refined as refined
+    import shapegrowth.optim.verification as refined
 
     cfg = sg.load_config(SQUARE, ["objective.hausdorff.quadrature_degree=2"])
     model = sg.build_model(cfg)
@@ -407,7 +408,7 @@ def test_a_lift_is_solved_on_the_3d_config_and_measured_with_the_verification_cl
 def test_the_check_of_a_verification_is_a_third_of_the_way_to_one_percent():
     """Reverified: the finer mesh may move the number by less than a third of its distance
     to 1 % (from above or from below), and says nothing where a solve failed."""
-    from shapegrowth.optim.refined import Reverified
+    from shapegrowth.io.records import Reverified
 
     def second(relative):
         return Verified(None if relative is None else relative * 2.0, relative, 2, 100, 1.0,

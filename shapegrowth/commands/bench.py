@@ -32,7 +32,7 @@ from ..config import Config
 from ..errors import InputError, StateSolveError
 from ..io import files as io
 from ..optim.problem import ReducedFunctional
-from ..optim.verification import smooth_direction
+from ..optim.taylor import smooth_direction
 from ..physics.boundary import body_box
 from ..physics.model import ForwardModel
 from ..timing import Timer, peak_memory_mb

@@ -11,7 +11,7 @@ import numpy as np
 from ..config import Config, resolved
 from ..io import files as io
 from ..optim.problem import ReducedFunctional
-from ..optim.verification import smooth_direction, taylor_test
+from ..optim.taylor import smooth_direction, taylor_test
 from ..physics.boundary import body_box
 from ..physics.model import ForwardModel
 

@@ -18,9 +18,10 @@ from pathlib import Path
 from ..config import Config, from_dict
 from ..errors import InputError
 from ..io import files as io
+from ..io.records import Lifted
 from ..io.summary import RunSummary, percent
-from ..optim.lift import Lifted, lifted_model, verification_model
-from ..optim.refined import refined_config
+from ..optim.lift import lifted_model, verification_model
+from ..optim.verification import refined_config
 from ..physics.model import ForwardModel
 from ..physics.stability import describe, unstable_tag
 

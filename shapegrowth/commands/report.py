@@ -10,10 +10,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..io.records import Verified
 from ..io.summary import RunSummary
 from ..optim.driver import window_progress
 from ..optim.interface import Record
-from ..optim.refined import TOLERATED, Verified, likely_cause
+from ..optim.verification import TOLERATED, likely_cause
 from ..physics.stability import unstable_tag
 from ..status import Outcome
 

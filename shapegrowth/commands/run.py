@@ -23,23 +23,19 @@ from mpi4py import MPI
 from ..config import load
 from ..errors import StateSolveError
 from ..io import files as io
-from ..io.along import Candidate, VerifyEvery
-from ..io.checkpoint import CheckpointFile
 from ..io.figures3d import write_shape3d_png
 from ..io.plotting import write_frame_png, write_shape_png
+from ..io.records import Verified
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
 from ..optim.callbacks import FromRestEvery, ProgressLog, ProgressTolerance, RetryFromRest
+from ..optim.checkpoint import CheckpointFile
 from ..optim.driver import Driver, DriverSettings
 from ..optim.interface import Callback, GlobalVector, Record
 from ..optim.levels import level_config
 from ..optim.lift import lift, verification_model
 from ..optim.objective import ObjectiveValue
 from ..optim.problem import Evaluation, ReducedFunctional
-from ..optim.refined import (
-    Verified,
-    branch_changed,
-    verify,
-)
+from ..optim.verification import Candidate, VerifyEvery, branch_changed, verify
 from ..physics import linear
 from ..physics.model import ForwardModel
 from ..physics.stability import StabilityProblem, assess_or_none

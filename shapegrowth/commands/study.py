@@ -44,7 +44,7 @@ from .. import compat
 from ..config import Config, ConfigError, load
 from ..io import files as io
 from ..optim.objective import Objective
-from ..optim.refined import grown_from_rest
+from ..optim.verification import grown_from_rest
 from ..physics.model import ForwardModel
 from ..timing import peak_memory_mb, reset_peak_memory
 from .run import run_optimization

@@ -9,7 +9,7 @@ there, as the run's own verification does.  A section run with ``verify.lift`` (
 ``--lift CONFIG_3D``) is lifted as well, onto its 3D body refined N - ``verify.refine``
 times more than the run's lift was.
 
-The check (:class:`~shapegrowth.optim.refined.Reverified`): the finer number must move by
+The check (:class:`~shapegrowth.io.records.Reverified`): the finer number must move by
 less than a third of the way from the run's number to 1 %, so that no further refinement
 is likely to carry it across the scenes' 1 %.  Writes verify.json (the new verification,
 the run's number and the check) to ``--out`` (default RUN_DIR/verify-rN), and beside it,
@@ -40,10 +40,11 @@ from pathlib import Path
 from ..config import Config, load
 from ..errors import InputError
 from ..io import files as io
+from ..io.records import Lifted, Reverified, Verified
 from ..io.summary import percent
 from ..logs import progress_file
-from ..optim.lift import Lifted, lifted_from_rest, lifted_model, verification_model
-from ..optim.refined import Reverified, Verified, verified_from_rest, verify
+from ..optim.lift import lifted_from_rest, lifted_model, verification_model
+from ..optim.verification import verified_from_rest, verify
 from ..physics.model import ForwardModel
 from ..physics.stability import describe, unstable_tag
 from .lift import reduced_run, solve_best_growth

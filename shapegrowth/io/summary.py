@@ -9,8 +9,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..optim.lift import Lifted
-from ..optim.refined import Verified
+from ..io.records import Lifted, Verified
 from ..physics.stability import Stability
 from ..status import Outcome
 

@@ -1,7 +1,7 @@
 """The driver's stock callbacks: the progress log, the retry of a failed state from rest,
 the physical branch (``optimizer.from_rest_every``) and the state's tolerance from the
 optimiser's progress (``solver.rtol_far``).  The checkpoint and exact resume are io's
-(io/checkpoint.py)."""
+(optim/checkpoint.py)."""
 
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ The driver sees only a :class:`DesignProblem` (the reduced functional's interfac
 size, bounds, current design, J and dJ, the alpha of a schedule and the scale of its
 stopping test) and a list of :class:`Callback` objects, in the spirit of pyadjoint's
 ``ReducedFunctional`` and its ``eval_cb_post``: the checkpoint file and exact resume
-(io/checkpoint.py), and the progress log, the retry of a failed state from rest and the
+(optim/checkpoint.py), and the progress log, the retry of a failed state from rest and the
 physical branch (optim/callbacks.py) are callbacks.
 
 L-BFGS keeps a few vector pairs, so its own work is O(n) per iteration (1.6 ms at 10^4

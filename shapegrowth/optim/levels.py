@@ -11,7 +11,7 @@ import dataclasses
 from typing import Any
 
 from ..config import Config
-from .refined import refined_config
+from .verification import refined_config
 
 
 def level_budgets(cfg: Config) -> tuple[int, ...]:

@@ -22,46 +22,20 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from dataclasses import dataclass
 
 import numpy as np
 from mpi4py import MPI
 
 from .. import compat
 from ..config import GEOMETRY_PARAMS, Config, ConfigError
+from ..io.records import Lifted
 from ..physics.growth import Growth
 from ..physics.model import ForwardModel
 from ..physics.paths import Continued, equilibrium_from_rest, solve_watched
-from ..physics.stability import Stability
 from ..physics.transfer import interpolate_between_meshes
 from .objective import measure_verified
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class Lifted:
-    """summary.json's ``lifted``: the reduced growth on the 3D body, grown from rest."""
-
-    hausdorff: float | None  # None where no equilibrium was found from rest
-    relative: float | None  # hausdorff / the 3D target's size
-    dofs: int  # state DOFs of the 3D model
-    wall_s: float
-    status: str  # "solved", or "failed: <reason>"
-    config: str  # the 3D config's name
-    # the largest distance of a 3D node from where the section puts it, over the 3D target's
-    # size (None where either solve failed, or the section's state is not known)
-    departure: float | None = None
-    stability: Stability | None = None  # of the 3D body's state, its path from rest watched
-    surface: float | None = None  # ``relative`` surface to surface (Verified.surface)
-    # ``shapegrowth verify --continued``: the refinement of the check (Verified.refine) whose
-    # 3D equilibrium, grown from rest, this state was continued from; None: from rest here
-    continued_from: int | None = None
-
-    def to_json(self) -> dict[str, object]:
-        """summary.json's ``verified.lifted`` and lift.json's ``lifted``."""
-        return {**dataclasses.asdict(self),
-                "stability": self.stability.to_json() if self.stability else None}
 
 
 def check_liftable(reduced: Config, solid: Config) -> None:

@@ -23,8 +23,8 @@ from mpi4py import MPI
 
 from .. import compat
 from ..errors import ResumeError
-from ..optim.interface import Answer, Callback, DriverResult, GlobalVector, Record, Step
 from ..timing import Timer
+from .interface import Answer, Callback, DriverResult, GlobalVector, Record, Step
 
 log = logging.getLogger(__name__)
 
