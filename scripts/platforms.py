@@ -38,7 +38,8 @@ SCENES = {
     "cylinder_flare": ["mesh.size=0.25", "mesh.layers=1"],
     "square_circle_fixed": ["mesh.size=1.0"],
     "square_circle_free": ["mesh.size=1.0"],
-    **{name: ["mesh.size=0.05", "mesh.layers=2", "verify.lift=null", "verify.lift_refine=null"]
+    **{name: ["mesh.size=0.05", "mesh.layers=2", "verify.lift=null", "verify.lift_refine=null",
+                 "verify.lift_degree=null"]
        for name in ("beam_wave_2d", "beam_ring_2d", "disk_cone_axi", "cylinder_flare_axi")},
 }
 
