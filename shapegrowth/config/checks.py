@@ -15,9 +15,11 @@ from .sections import (
     CURVED,
     GEOMETRY_PARAMS,
     LAYERED,
+    MATERIAL_PARAMS,
     PAPER_ANGLE_BOUNDS_2D,
     PAPER_ANGLE_BOUNDS_3D,
     GrowthConfig,
+    MaterialConfig,
     ModelConfig,
 )
 from .target_checks import OFF_SECTION, check_compare, check_target
@@ -146,7 +148,8 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
             errors.append(f"solver.petsc_options.{key}: keys start with state_, adjoint_ "
                           "or filter_")
 
-    return dataclasses.replace(cfg, growth=growth, model=model,
+    material = _check_material(cfg, section, errors)
+    return dataclasses.replace(cfg, growth=growth, model=model, material=material,
                                loads=dataclasses.replace(loads, body_force=tuple(body_force)))
 
 
@@ -303,6 +306,39 @@ def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:
         g, degree=degree,
         eigenvalues=dataclasses.replace(eig, initial=tuple(initial), design=tuple(design)),
         angles=dataclasses.replace(ang, initial=tuple(a_init), bounds=tuple(a_bounds)))
+
+
+def _check_material(cfg: Config, section: Section, errors: list[str]) -> MaterialConfig:
+    """Each energy's constants: those it takes given or defaulted, the others absent; the
+    volumetric part named only where the energy has one to choose."""
+    m = cfg.material
+    params = MATERIAL_PARAMS[m.kind]
+    values: dict[str, float | None] = {}
+    for name in ("mu1", "mu2", "lmbda", "mu", "c10", "c20", "c30", "Jm", "kappa"):
+        given = getattr(m, name)
+        if name in params:
+            values[name] = given if given is not None else params[name]
+            if values[name] is None:
+                errors.append(f"material.{name}: required for kind '{m.kind}' (it takes "
+                              f"{', '.join(params)})")
+        elif given is not None:
+            errors.append(f"material.{name}: not used by kind '{m.kind}' (it takes "
+                          f"{', '.join(params)})")
+    volumetric = m.volumetric
+    if m.kind == "mooney_rivlin":
+        if volumetric is not None:
+            errors.append("material.volumetric: the paper's Mooney-Rivlin energy has its own "
+                          "volumetric part (lmbda); remove the key or choose another kind")
+    else:
+        volumetric = volumetric or "quadratic"
+        if section.stress_free:
+            errors.append(f"material.kind: plane stress holds the third stretch in closed "
+                          f"form for mooney_rivlin only, not {m.kind}; use "
+                          "model.reduction: plane_strain or model.dim: 3")
+    v = values.get
+    return dataclasses.replace(m, volumetric=volumetric, mu1=v("mu1"), mu2=v("mu2"),
+                               lmbda=v("lmbda"), mu=v("mu"), c10=v("c10"), c20=v("c20"),
+                               c30=v("c30"), Jm=v("Jm"), kappa=v("kappa"))
 
 
 def growth_degree(cfg: Config) -> int:

@@ -110,11 +110,38 @@ class ModelConfig:
         None, ge=1, le=12)
 
 
+MATERIALS = ("mooney_rivlin", "neo_hookean", "yeoh", "gent")
+# each energy's constants: required, or with the default given here
+MATERIAL_PARAMS: dict[str, dict[str, float | None]] = {
+    "mooney_rivlin": {"mu1": 0.5, "mu2": 0.5, "lmbda": 3.0},
+    "neo_hookean": {"mu": None, "kappa": None},
+    "yeoh": {"c10": None, "c20": 0.0, "c30": 0.0, "kappa": None},
+    "gent": {"mu": None, "Jm": None, "kappa": None},
+}
+VOLUMETRIC = ("quadratic", "log", "simo_taylor")
+
+
 @dataclass(frozen=True)
 class MaterialConfig:
-    mu1: float = option("Mooney-Rivlin mu1 (5.1)", 0.5, ge=0)
-    mu2: float = option("Mooney-Rivlin mu2 (5.1)", 0.5, ge=0)
-    lmbda: float = option("volumetric modulus lambda (5.1)", 3.0, ge=0)
+    kind: str = option(
+        "strain energy of the elastic part of F (physics/material.py): the paper's "
+        "compressible Mooney-Rivlin (5.1), or on the isochoric invariants with a volumetric "
+        "part U(J): neo_hookean (mu, kappa), yeoh (c10, c20, c30, kappa), gent (mu, Jm, kappa)",
+        "mooney_rivlin", choices=MATERIALS)
+    mu1: float | None = option("Mooney-Rivlin mu1 (5.1) (default 0.5)", None, ge=0)
+    mu2: float | None = option("Mooney-Rivlin mu2 (5.1) (default 0.5)", None, ge=0)
+    lmbda: float | None = option("Mooney-Rivlin volumetric modulus lambda (5.1) (default 3)",
+                                 None, ge=0)
+    mu: float | None = option("shear modulus (neo_hookean, gent)", None, gt=0)
+    c10: float | None = option("Yeoh's c10 (the shear modulus is 2 c10)", None, gt=0)
+    c20: float | None = option("Yeoh's c20 (default 0)", None)
+    c30: float | None = option("Yeoh's c30 (default 0)", None)
+    Jm: float | None = option("Gent's limit of I1b - 3", None, gt=0)
+    kappa: float | None = option("bulk modulus of U(J) (neo_hookean, yeoh, gent)", None, gt=0)
+    volumetric: str | None = option(
+        "U(J) of neo_hookean, yeoh and gent: 'quadratic' kappa/2 (J - 1)^2, 'log' kappa/2 "
+        "(log J)^2 or 'simo_taylor' kappa/4 (J^2 - 1 - 2 log J) (default quadratic)", None,
+        choices=VOLUMETRIC)
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,7 @@ import ufl
 from ufl.core.expr import Expr
 
 from ..config.reduction import Section
-from .material import MooneyRivlin
+from .material import Material, MooneyRivlin
 
 
 def block(A2: Expr, third: Expr | float) -> Expr:
@@ -41,7 +41,7 @@ def block(A2: Expr, third: Expr | float) -> Expr:
 class Kinematics:
     """F, C_g and the volume measure of one model (a ``Section``) on one mesh."""
 
-    def __init__(self, section: Section, mesh, material: MooneyRivlin):
+    def __init__(self, section: Section, mesh, material: Material):
         self.section, self.material = section, material
         self.x = ufl.SpatialCoordinate(mesh)
         self.solid = section.kind == "solid"
@@ -68,6 +68,7 @@ class Kinematics:
         if not self.section.stress_free:
             return 1.0
         m = self.material
+        assert isinstance(m, MooneyRivlin)  # config.checks: plane stress is the paper's energy's
         C2 = ufl.as_matrix([[Cg3[0, 0], Cg3[0, 1]], [Cg3[1, 0], Cg3[1, 1]]])
         det_c2 = ufl.det(C2)
         norm2 = ufl.tr(F.T * F * ufl.cofac(C2)) / det_c2  # |A2|^2

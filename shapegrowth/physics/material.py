@@ -1,13 +1,25 @@
-"""The growth-modulated Mooney-Rivlin energy psi(F, C_g) of (5.1), written in UFL.
+"""The growth-modulated strain energies psi(F, C_g), written in UFL: the paper's
+compressible Mooney-Rivlin (5.1) and the energies elastomers are fitted with (neo-Hookean,
+Yeoh, Gent), each with a volumetric part.
 
 psi is the only constitutive input: the stress P, the elasticity tensor and the
 derivatives with respect to the growth parameters all come from it through
 ``ufl.derivative``/``ufl.diff``, and are checked against the paper's closed
 forms in ``shapegrowth.closed_forms`` by the tests.
 
-With G = C_g^(1/2), psi(F, C_g) = W0(F G^-1) det G (2.5), where
-W0(F) = mu1/2 |F|^2 + mu2/2 |cof F|^2 - (mu1 + 2 mu2) log J + lambda/2 (J - 1)^2,
-so psi is stress-free exactly when F^T F = C_g.
+With G = C_g^(1/2) and A = F G^-1 the elastic part of F, psi(F, C_g) = W0(A) det G (2.5):
+W0 per unit volume of the grown, stress-free body, so psi is stress-free exactly when
+F^T F = C_g.  The paper's W0(A) = mu1/2 |A|^2 + mu2/2 |cof A|^2 - (mu1 + 2 mu2) log J
++ lambda/2 (J - 1)^2.  The others are written on the invariants of A's isochoric part,
+I1b = J^(-2/3) |A|^2 (and I2b = J^(-4/3) |cof A|^2), plus U(J):
+
+* neo-Hookean: mu/2 (I1b - 3);
+* Yeoh: c10 (I1b - 3) + c20 (I1b - 3)^2 + c30 (I1b - 3)^3;
+* Gent: -mu Jm/2 log(1 - (I1b - 3)/Jm) (the chains' limit at I1b - 3 = Jm);
+* U(J) (``material.volumetric``): ``quadratic`` kappa/2 (J - 1)^2, ``log`` kappa/2 (log J)^2,
+  or ``simo_taylor`` kappa/4 (J^2 - 1 - 2 log J).
+
+Each has the small-strain shear modulus mu (2 c10 for Yeoh) and bulk modulus kappa.
 """
 
 from __future__ import annotations
@@ -15,6 +27,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import ufl
+from ufl.core.expr import Expr
+
+from ..config import Config, resolved
 
 
 @dataclass(frozen=True)
@@ -25,7 +40,12 @@ class MooneyRivlin:
     mu2: float = 0.5
     lmbda: float = 3.0
 
-    def psi(self, F: ufl.core.expr.Expr, Cg: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+    @property
+    def modulus(self) -> float:
+        """A stress scale of the material (mu1 + mu2 + lambda): Newton's force scale."""
+        return self.mu1 + self.mu2 + self.lmbda
+
+    def psi(self, F: Expr, Cg: Expr) -> Expr:
         """Energy density (5.1) for 3x3 tensors F (deformation gradient) and C_g."""
         det_cg = ufl.det(Cg)
         root = ufl.sqrt(det_cg)
@@ -37,19 +57,86 @@ class MooneyRivlin:
                 - (self.mu1 + 2 * self.mu2) * root * ufl.ln(je)
                 + self.lmbda / 2 * root * (je - 1) ** 2)
 
-    def psi_plane_strain(self, F2: ufl.core.expr.Expr, Cg2: ufl.core.expr.Expr):
+    def psi_plane_strain(self, F2: Expr, Cg2: Expr) -> Expr:
         """psi for a 2D body in plane strain: F and C_g carry 1 in the X3 direction."""
         return self.psi(embed_plane(F2), embed_plane(Cg2))
 
-    def energy_density(self, F: ufl.core.expr.Expr, Cg: ufl.core.expr.Expr):
+    def energy_density(self, F: Expr, Cg: Expr) -> Expr:
         """psi in the body's own dimension (3D, or plane strain in 2D)."""
         return self.psi(F, Cg) if F.ufl_shape == (3, 3) else self.psi_plane_strain(F, Cg)
 
 
-def embed_plane(A2: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+@dataclass(frozen=True)
+class Isochoric:
+    """An energy on the isochoric invariants of A plus a volumetric part U(J):
+    ``kind`` neo_hookean (mu), yeoh (c10, c20, c30) or gent (mu, Jm)."""
+
+    kind: str
+    kappa: float
+    volumetric: str = "quadratic"
+    mu: float = 0.0
+    c: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    Jm: float = 0.0
+
+    @property
+    def shear(self) -> float:
+        """The small-strain shear modulus."""
+        return 2 * self.c[0] if self.kind == "yeoh" else self.mu
+
+    @property
+    def modulus(self) -> float:
+        """A stress scale of the material (shear + bulk modulus): Newton's force scale."""
+        return self.shear + self.kappa
+
+    def deviatoric(self, i1b: Expr) -> Expr:
+        """W0's isochoric part as a function of I1b."""
+        x = i1b - 3
+        if self.kind == "neo_hookean":
+            return self.mu / 2 * x
+        if self.kind == "yeoh":
+            return self.c[0] * x + self.c[1] * x ** 2 + self.c[2] * x ** 3
+        if self.kind == "gent":
+            return -self.mu * self.Jm / 2 * ufl.ln(1 - x / self.Jm)
+        raise ValueError(f"unknown energy {self.kind!r}")
+
+    def volume(self, J: Expr) -> Expr:
+        """U(J), zero with zero slope at J = 1, of second derivative kappa there."""
+        if self.volumetric == "quadratic":
+            return self.kappa / 2 * (J - 1) ** 2
+        if self.volumetric == "log":
+            return self.kappa / 2 * ufl.ln(J) ** 2
+        return self.kappa / 4 * (J ** 2 - 1 - 2 * ufl.ln(J))
+
+    def psi(self, F: Expr, Cg: Expr) -> Expr:
+        """W0(F G^-1) det G for 3x3 tensors F and C_g: |A|^2 = tr(F^T F C_g^-1)."""
+        root = ufl.sqrt(ufl.det(Cg))
+        je = ufl.det(F) / root
+        i1 = ufl.tr(F.T * F * ufl.cofac(Cg)) / root ** 2  # cofac(C_g) = det C_g C_g^-1
+        return root * (self.deviatoric(je ** (-2.0 / 3.0) * i1) + self.volume(je))
+
+    def psi_plane_strain(self, F2: Expr, Cg2: Expr) -> Expr:
+        return self.psi(embed_plane(F2), embed_plane(Cg2))
+
+    def energy_density(self, F: Expr, Cg: Expr) -> Expr:
+        return self.psi(F, Cg) if F.ufl_shape == (3, 3) else self.psi_plane_strain(F, Cg)
+
+
+Material = MooneyRivlin | Isochoric
+
+
+def material_of(cfg: Config) -> Material:
+    """The config's ``material`` as its energy (config.checks resolved its constants)."""
+    m = cfg.material
+    if m.kind == "mooney_rivlin":
+        return MooneyRivlin(resolved(m.mu1), resolved(m.mu2), resolved(m.lmbda))
+    return Isochoric(m.kind, resolved(m.kappa), resolved(m.volumetric), mu=m.mu or 0.0,
+                     c=(m.c10 or 0.0, m.c20 or 0.0, m.c30 or 0.0), Jm=m.Jm or 0.0)
+
+
+def embed_plane(A2: Expr) -> Expr:
     """The 3x3 tensor [[A2, 0], [0, 1]] of a 2x2 tensor A2 (plane strain)."""
     return ufl.as_matrix([[A2[0, 0], A2[0, 1], 0], [A2[1, 0], A2[1, 1], 0], [0, 0, 1]])
 
 
-def deformation_gradient(u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+def deformation_gradient(u: Expr) -> Expr:
     return ufl.Identity(len(u)) + ufl.grad(u)

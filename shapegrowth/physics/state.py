@@ -54,7 +54,7 @@ from .boundary import clamp_conditions
 from .geometry import Domain
 from .growth import Growth
 from .kinematics import Kinematics
-from .material import MooneyRivlin, deformation_gradient
+from .material import deformation_gradient, material_of
 from .newton import NewtonSolver
 from .transfer import interpolate_between_meshes
 
@@ -97,7 +97,7 @@ class StateProblem:
         self.V = compat.vector_space(mesh, cfg.model.degree)
         self.u = dolfinx.fem.Function(self.V, name="displacement")
         self.applied = growth.like()  # the growth that self.u is in equilibrium with
-        self.material = MooneyRivlin(cfg.material.mu1, cfg.material.mu2, cfg.material.lmbda)
+        self.material = material_of(cfg)
         self.kinematics = Kinematics(cfg.section, mesh, self.material)
         self.weight = self.kinematics.weight()  # 2 pi R for a body of revolution, else 1
         self.load_scale = compat.constant(mesh, 1.0)
@@ -165,14 +165,14 @@ class StateProblem:
         return self.kinematics.volume_ratio(self.deformation_gradient(), self.u)
 
     def force_scale(self) -> float:
-        """(mu1 + mu2 + lambda) |body|^((d-1)/d): a stress times a cross-section."""
+        """The material's stress scale (mu1 + mu2 + lambda for the paper's) times
+        |body|^((d-1)/d): a stress times a cross-section."""
         mesh = self.domain.mesh
         one = compat.constant(mesh, 1.0)
         volume = mesh.comm.allreduce(dolfinx.fem.assemble_scalar(
             dolfinx.fem.form(one * self.weight * ufl.dx(domain=mesh))), MPI.SUM)
-        m = self.cfg.material
         dim = 3 if self.cfg.section.axisymmetric else self.dim  # the weighted measure's
-        return (m.mu1 + m.mu2 + m.lmbda) * volume ** ((dim - 1) / dim)
+        return self.material.modulus * volume ** ((dim - 1) / dim)
 
     def _det_F_sampler(self, degree: int):
         """det F at the quadrature points of ``degree`` on the owned cells."""
