@@ -32,8 +32,23 @@ from ufl.core.expr import Expr
 from ..config import Config, resolved
 
 
+class Energy:
+    """What every energy derives from its 3D psi(F, C_g)."""
+
+    def psi(self, F: Expr, Cg: Expr) -> Expr:
+        raise NotImplementedError
+
+    def psi_plane_strain(self, F2: Expr, Cg2: Expr) -> Expr:
+        """psi for a 2D body in plane strain: F and C_g carry 1 in the X3 direction."""
+        return self.psi(embed_plane(F2), embed_plane(Cg2))
+
+    def energy_density(self, F: Expr, Cg: Expr) -> Expr:
+        """psi in the body's own dimension (3D, or plane strain in 2D)."""
+        return self.psi(F, Cg) if F.ufl_shape == (3, 3) else self.psi_plane_strain(F, Cg)
+
+
 @dataclass(frozen=True)
-class MooneyRivlin:
+class MooneyRivlin(Energy):
     """Material constants of (5.1); the paper uses mu1 = mu2 = 0.5, lambda = 3."""
 
     mu1: float = 0.5
@@ -57,17 +72,9 @@ class MooneyRivlin:
                 - (self.mu1 + 2 * self.mu2) * root * ufl.ln(je)
                 + self.lmbda / 2 * root * (je - 1) ** 2)
 
-    def psi_plane_strain(self, F2: Expr, Cg2: Expr) -> Expr:
-        """psi for a 2D body in plane strain: F and C_g carry 1 in the X3 direction."""
-        return self.psi(embed_plane(F2), embed_plane(Cg2))
-
-    def energy_density(self, F: Expr, Cg: Expr) -> Expr:
-        """psi in the body's own dimension (3D, or plane strain in 2D)."""
-        return self.psi(F, Cg) if F.ufl_shape == (3, 3) else self.psi_plane_strain(F, Cg)
-
 
 @dataclass(frozen=True)
-class Isochoric:
+class Isochoric(Energy):
     """An energy on the isochoric invariants of A plus a volumetric part U(J):
     ``kind`` neo_hookean (mu), yeoh (c10, c20, c30) or gent (mu, Jm)."""
 
@@ -114,11 +121,6 @@ class Isochoric:
         i1 = ufl.tr(F.T * F * ufl.cofac(Cg)) / root ** 2  # cofac(C_g) = det C_g C_g^-1
         return root * (self.deviatoric(je ** (-2.0 / 3.0) * i1) + self.volume(je))
 
-    def psi_plane_strain(self, F2: Expr, Cg2: Expr) -> Expr:
-        return self.psi(embed_plane(F2), embed_plane(Cg2))
-
-    def energy_density(self, F: Expr, Cg: Expr) -> Expr:
-        return self.psi(F, Cg) if F.ufl_shape == (3, 3) else self.psi_plane_strain(F, Cg)
 
 
 Material = MooneyRivlin | Isochoric
