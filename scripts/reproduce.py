@@ -296,14 +296,22 @@ def readings_markdown(verified: dict[int, tuple[str, float]]) -> list[str]:
     return [*lines, READINGS_END, ""]
 
 
-def best_verified(rows: list[tuple[Scene, RunSummary | None]]) -> dict[int, tuple[str, float]]:
-    """Each scene's lowest verified number among the rows, with its run."""
-    best: dict[int, tuple[str, float]] = {}
+def best_runs(rows: list[tuple[Scene, RunSummary | None]]
+              ) -> dict[int, tuple[Scene, RunSummary, float]]:
+    """Each scene's run of the lowest verified number among the rows (the first of equal
+    ones), with that number."""
+    best: dict[int, tuple[Scene, RunSummary, float]] = {}
     for scene, s in rows:
         value = verified_error(s) if s is not None else None
-        if value is not None and (scene.number not in best or value < best[scene.number][1]):
-            best[scene.number] = (scene.name, value)
+        if s is not None and value is not None and (
+                scene.number not in best or value < best[scene.number][2]):
+            best[scene.number] = (scene, s, value)
     return best
+
+
+def best_verified(rows: list[tuple[Scene, RunSummary | None]]) -> dict[int, tuple[str, float]]:
+    """Each scene's lowest verified number among the rows, with its run's name."""
+    return {n: (scene.name, value) for n, (scene, _, value) in best_runs(rows).items()}
 
 
 def tabled_verified(text: str) -> dict[int, tuple[str, float]]:
@@ -736,13 +744,11 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
               "optimum'). Beside each, its self-reported number against its own mesh "
               f"refined once: within {AGREE:g}x either way, the optimum does not lean on "
               "its mesh's error (TRADEOFFS, 'Checking a new body', step 3).", ""]
+    chosen = best_runs(rows)
     for number in range(1, 6):
-        runs = [(scene, s) for scene, s in rows if scene.number == number and s is not None
-                and verified_error(s) is not None]
-        if not runs:
+        if number not in chosen:
             continue
-        best, s = min(runs, key=lambda r: verified_error(r[1]) or 0.0)
-        value = verified_error(s) or 0.0
+        best, s, value = chosen[number]
         verdict = "at or below 1 %" if value <= 0.01 else "above 1 %"
         text = (f"- Scene {number}: best verified {_pc(value)} ({best.name}, {best.model}; "
                 f"{verdict}; {_trend(out / best.name / 'history.csv')}).")

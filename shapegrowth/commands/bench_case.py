@@ -27,24 +27,20 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     import logging
 
-    from mpi4py import MPI
-
     from .. import logs
     from ..config import load
     from ..errors import ConfigError, InputError
     from ..io import files
     from .bench import measure_case
+    from .cli import EXIT_OK, bad_input
 
     logs.configure(logging.WARNING)
     try:
         cfg = load(args.config, args.overrides)
         files.write_json(args.out / "case.json", measure_case(cfg, args.steps))
     except (ConfigError, InputError) as err:
-        if MPI.COMM_WORLD.rank == 0:
-            for line in str(err).splitlines():
-                print(f"error: {line}", file=sys.stderr)
-        return 2
-    return 0
+        return bad_input(err)
+    return EXIT_OK
 
 
 if __name__ == "__main__":

@@ -325,10 +325,15 @@ def main(argv: list[str] | None = None) -> int:
         cfg = load(args.config, args.overrides)
         return COMMANDS[args.command](cfg, args)
     except (ConfigError, InputError) as err:
-        if MPI.COMM_WORLD.rank == 0:
-            for line in str(err).splitlines():
-                print(f"error: {line}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        return bad_input(err)
+
+
+def bad_input(err: Exception) -> int:
+    """One ``error:`` line per problem of ``err``, on rank 0; the bad-input exit status."""
+    if MPI.COMM_WORLD.rank == 0:
+        for line in str(err).splitlines():
+            print(f"error: {line}", file=sys.stderr)
+    return EXIT_BAD_INPUT
 
 
 def entry() -> None:

@@ -314,7 +314,7 @@ def _check_material(cfg: Config, section: Section, errors: list[str]) -> Materia
     m = cfg.material
     params = MATERIAL_PARAMS[m.kind]
     values: dict[str, float | None] = {}
-    for name in ("mu1", "mu2", "lmbda", "mu", "c10", "c20", "c30", "Jm", "kappa"):
+    for name in dict.fromkeys(n for kind in MATERIAL_PARAMS.values() for n in kind):
         given = getattr(m, name)
         if name in params:
             values[name] = given if given is not None else params[name]

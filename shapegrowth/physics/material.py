@@ -10,8 +10,8 @@ forms in ``shapegrowth.closed_forms`` by the tests.
 With G = C_g^(1/2) and A = F G^-1 the elastic part of F, psi(F, C_g) = W0(A) det G (2.5):
 W0 per unit volume of the grown, stress-free body, so psi is stress-free exactly when
 F^T F = C_g.  The paper's W0(A) = mu1/2 |A|^2 + mu2/2 |cof A|^2 - (mu1 + 2 mu2) log J
-+ lambda/2 (J - 1)^2.  The others are written on the invariants of A's isochoric part,
-I1b = J^(-2/3) |A|^2 (and I2b = J^(-4/3) |cof A|^2), plus U(J):
++ lambda/2 (J - 1)^2.  The others are written on the first invariant of A's isochoric
+part, I1b = J^(-2/3) |A|^2, plus U(J):
 
 * neo-Hookean: mu/2 (I1b - 3);
 * Yeoh: c10 (I1b - 3) + c20 (I1b - 3)^2 + c30 (I1b - 3)^3;
