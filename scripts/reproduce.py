@@ -12,17 +12,17 @@ Every run of SCENES (the 3D configs, the reduced models of scenes 1, 2, 4 and 5 
 OUT/NAME, resumed from its checkpoint when one is there and skipped when its summary.json is
 final, so an interrupted reproduction continues where it stopped.  The default set is one
 run per scene on the model that wins the measurements (the section lifted for scenes 1, 2
-and 5, the 3D disk for scene 4, the 3D tube; docs/TRADEOFFS.md, 'One page') and scene 6's
-two squares; each scene's other model (the 3D beams and shell, the disk's section) is a
-measurement of that choice, 23 of the eleventh reproduction's 74 minutes: it runs with
-``--models`` (``make reproduce-models``) or ``--all`` (their last numbers: TRADEOFFS, 'One
-page').  The three 3D runs restarted from a section's optimum are measurements of the
-reduced models (how far the 3D body leaves its section), not the scenes' results, and took
-42 minutes more in the reproduction that ran them (the default set then: 47 minutes on 2
-cores): they run with ``--all`` or ``--only NAME``, and a finished one is reported either
-way.  The table and the
-figures (each run's history.png and shape.png, copied to docs/img/results/) are then made
-from the summaries alone: every number in RESULTS.md comes from a run folder.  The table
+and 5, the 3D disk for scene 4, the 3D tube; docs/MODELS.md, 'Which model for which
+body') and scene 6's two squares; each scene's other model (the 3D beams and shell, the
+disk's section) is a measurement of that choice, 23 of the eleventh reproduction's 74
+minutes: it runs with ``--models`` (``make reproduce-models``) or ``--all`` (their last
+numbers: MODELS.md, 'Reduced models, measured').  The three 3D runs restarted from a
+section's optimum are measurements of the reduced models (how far the 3D body leaves its
+section), not the scenes' results, and took 42 minutes more in the reproduction that ran
+them (the default set then: 47 minutes on 2 cores): they run with ``--all`` or ``--only
+NAME``, and a finished one is reported either way.  The table and the figures (each run's
+history.png and shape.png, copied to docs/img/results/) are then made from the summaries
+alone: every number in RESULTS.md comes from a run folder.  The table
 leads with each run's verified shape error (its best growth grown from rest on its mesh
 refined, and for a section model on the 3D body, lifted); the run's own number beside it is
 labelled self-reported.
@@ -120,12 +120,12 @@ def _block(refine: int) -> str:
 # What a refined-twice check of a 3D body takes here, measured by MUMPS's analysis of its
 # tangent and one check started (PERFORMANCE.md): run only when named
 _NEEDS = "PERFORMANCE.md, 'What a refined-twice check would need'"
-# Scene 5's shell refined twice, measured on the sixth reproduction's optimum (TRADEOFFS,
-# 'The verification, verified'): run only when named
+# Scene 5's shell refined twice from rest, measured on an earlier optimum of the printed
+# flare (PERFORMANCE.md, 'Continued'): run only when named
 _FLARE_TWICE = ("787 968 DOFs; the printed flare's optimum, grown from rest there out of "
                 "core with the config's load steps, reached 0.919 of the growth in 2 h 10 min, "
                 "its steps cut to 0.006 from 0.9 on; "
-                "stopped there (TRADEOFFS, 'The verification, verified')")
+                "stopped there (VERIFICATION.md, 'The verification, verified')")
 # The 3D cube's uniform start: lambda = (9 pi/4, 9 pi/4, 1), the isotropic growth whose
 # stress-free square has the disk's area; an isotropic growth has dJ/dtheta = 0, so its free
 # partner starts from the fixed frame's optimum at angle 0 (the symmetry-breaking that needs
@@ -135,7 +135,8 @@ _UNIFORM = ("growth.start=given",
 # The uniform pair runs on to 4000 iterations: after 300 its fixed frame is 9.7-12.1 %
 # verified wherever round-off took its path (four runs), after 4000 6.00-6.35 % (three
 # runs) and still creeping; the pair from the target's metric keeps its 300 (run on, its
-# fixed frame leaves what the body can hold: TRADEOFFS, 'The cube run on: 4000 iterations')
+# fixed frame leaves what the body can hold: REPRODUCIBILITY.md, 'The cube's uniform pair
+# run on, twice')
 _RUN_ON = ("optimizer.max_iterations=4000", "optimizer.ftol_rel=1e-6")
 
 
@@ -198,7 +199,7 @@ SCENES = [
     Scene(6, "square_circle_free", "square_circle_free", "2D plane strain, free frame",
           "rho_H 1/13.9 of the fixed frame's"),
     # the 3D cube as the paper ran it, from the target's metric and, staged, from the uniform
-    # growth whose stress-free square has the disk's area (TRADEOFFS, 'The fixed/free ratio,
+    # growth whose stress-free square has the disk's area (SCENES.md, 'The fixed/free ratio,
     # compared fairly')
     Scene(6, "cube_cylinder_fixed", "cube_cylinder_fixed", "3D cube, fixed frame",
           "rho_H 13.9 x the free frame's", group="cube", twice_limit=_CUBE_CARRIED,
@@ -219,13 +220,13 @@ SCENES = [
 # RESULTS.md names the runs of a group not made
 NOT_RUN = {
     "model": "each scene's other model, measured beside the one tabled above, which wins: "
-             "`make reproduce-models`; their last measured numbers are in docs/TRADEOFFS.md, "
-             "'One page: which model for which body'",
+             "`make reproduce-models`; their last measured numbers are in docs/MODELS.md, "
+             "'Reduced models, measured'",
     "restart": "3D runs restarted from a section's optimum, measurements of the reduced "
                "models: `scripts/reproduce.py --all`; their last measured numbers are in "
-               "docs/TRADEOFFS.md, 'The reproduction, with the departure'",
+               "docs/MODELS.md, 'Reduced models, measured'",
     "cube": "scene 6's 3D cube as the paper ran it: `make reproduce-cube`; its last measured "
-            "numbers are in docs/TRADEOFFS.md, 'The fixed/free ratio, compared fairly'",
+            "numbers are in docs/SCENES.md, 'The fixed/free ratio, compared fairly'",
 }
 # the 3D cube's pairs, fixed against free, and the start each pair shares
 CUBE_PAIRS = (("cube_cylinder_fixed", "cube_cylinder_free", "from the target's metric"),
@@ -240,7 +241,7 @@ PAPER_RATIO = 13.8889
 @dataclass(frozen=True)
 class Reading:
     """A scene's target as printed beside the reading its configs ship (docs/SCENES.md,
-    where each number below is derived or measured, with its TRADEOFFS section): the two
+    where each number below is derived or measured): the two
     apart as sets and the printed target's floor over the target's size, the best verified
     number on the printed target, and where the runs start."""
 
@@ -334,13 +335,13 @@ def with_readings(text: str) -> str:
     before, table = text.split("| scene | run |", 1)
     return before + section + "\n" + "| scene | run |" + table
 # a run's self-reported number and its number on its mesh refined once agree within this
-# factor either way (above it the optimum leans on its mesh's error: TRADEOFFS, 'Checking a
-# new body', step 3)
+# factor either way (above it the optimum leans on its mesh's error: HOWTO.md, 'Check a
+# result', step 3)
 AGREE = 1.3
 # two reproductions agree when every compared value does to this fraction of itself
 RTOL = 0.05
 # Why a scene stays above 1 % verified and what would bring it there: read off its figures
-# and the measurements of docs/TRADEOFFS.md (the numbers are there, not here: every number
+# and the measurements of docs/MODELS.md, VERIFICATION.md and SCENES.md (not here: every number
 # in RESULTS.md comes from a run folder).
 WHY: dict[int, str] = {
     1: "The section alone holds its own number under refinement (the table's 'section refined' "
@@ -348,31 +349,31 @@ WHY: dict[int, str] = {
        "(the clamp's boundary layer) is followed by plane stress and not by the 3D beam, "
        "clamped across its width: the 3D body leaves the section (the departure in the "
        "table). A filter of a quarter of the thickness removes that detail (configs/"
-       "beam_wave_2d.yaml; TRADEOFFS, 'Filter lengths and design sets, judged verified'), "
+       "beam_wave_2d.yaml; MODELS.md, 'Filter lengths and design sets, judged verified'), "
        "while a 3D mesh graded towards the clamp does not; the 3D run's (beam_wave, "
        "`--models`) self-reported number is below its verified one: it exploits its own mesh "
-       "(TRADEOFFS, 'The finding that matters most').",
+       "(VERIFICATION.md, 'Why: the optimiser exploits the discretisation').",
     2: "Read as the solid ring (the printed map has no thickness: a floor of t/2 over the "
        "target size, 3.1 %, where every run of it ended), the section verifies below 1 %. "
        "Its lift is made where scene 1's is (verify.lift_refine: 2, the 3D strip refined "
        "twice), with the section's growth at degree 2 on the strip (verify.lift_degree: 2): "
        "at the strip's own degree 1 most of what the strip seemed to leave the section by "
        "(1.04 % in the seventh reproduction, 0.27 % at degree 2) was the growth's "
-       "interpolation (TRADEOFFS, 'A lift's growth of degree 2'). Part of what is left is "
+       "interpolation (MODELS.md, 'A lift's growth of degree 2'). Part of what is left is "
        "the clouds' own sampling of a ring: the target's cloud turned along itself reads "
        "0.54-0.66 % with the verification's clouds (quadrature degree 6; 0.94-1.03 % with "
-       "degree 2, the verification's clouds up to the twelfth reproduction: TRADEOFFS, 'The "
-       "verified number's sampling', 'Denser clouds on every scene's optimum'); compare the "
+       "degree 2, the verification's clouds up to the twelfth reproduction: VERIFICATION.md, 'The "
+       "verified number's sampling'); compare the "
        "surface-to-surface column, which has no sampling. The 3D run (beam_ring, "
        "`--models`) lands far from the section's lift, its self-reported number a tenth of its "
-       "verified one: it fits its own coarse mesh (TRADEOFFS, 'What 1 % would take').",
+       "verified one: it fits its own coarse mesh (RESULTS.md, 'Where a scene misses 1 %').",
     3: "A helix has no section model. Read as a tube winds (its sections normal to the "
-       "centre line, leaving the clamp along its axis: TRADEOFFS, 'Scene 3: which helix'), "
+       "centre line, leaving the clamp along its axis: SCENES.md, 'Scene 3'), "
        "the paper's fixed frame grows it stress-free: its exact metric verifies at 0.037 %. "
        "The reading used until the fourteenth reproduction (vertical sections, sheared "
        "against the centre line, which no fixed frame holds) verified at 2.06-2.08 % at "
        "best, with a transfer onto the refined mesh that gave a curved wall's new nodes the "
-       "growth across the wall (TRADEOFFS, 'The verification's growth on a curved wall').",
+       "growth across the wall (VERIFICATION.md, 'The verification, verified').",
     4: "Read as the solid cone (the printed map shears the wall, C_r3 = 5/8, which no "
        "fixed frame holds; the wall carried along the cone's normal instead, whose metric the "
        "fixed frame grows stress-free but at the clamp: a floor of 0.22 %), started from its "
@@ -380,30 +381,29 @@ WHY: dict[int, str] = {
        "run's solves from rest switching branch as the verification's: a flat disk grown "
        "radially buckles into a cone or its mirror, and a design that bent the wall picked "
        "the mirror in one run of two before (0.703 % and 42.5 %); two runs of the shipped "
-       "config verify at 0.7758 % each (TRADEOFFS, 'Scene 4: which cone'). The printed "
+       "config verify at 0.7758 % each (SCENES.md, 'Scene 4'). The printed "
        "cone's runs verified 3.16-6.89 % over the eighth to fourteenth reproductions, their "
        "paths jumping between the disk's equilibria. The section (disk_cone_axi, "
        "`--models`) reached the printed cone, but the 3D disk grown from rest buckled out of "
-       "axial symmetry (its lift left it by about 6 %: TRADEOFFS, 'The reproduction, with "
-       "the departure').",
+       "axial symmetry (its lift left it by about 6 %: MODELS.md, 'Reduced models, measured').",
     5: "Read as the solid flare (the printed map has no wall and starts at the clamped rim's "
        "outer radius: a floor of t over the target size, 1.47 %, where every run of it "
        "ended, lifted 1.44 % in the thirteenth reproduction: tests/test_objective.py; "
-       "TRADEOFFS, 'Scene 5: a floor at the clamp'), the outer face on the printed flare and "
+       "SCENES.md, 'Scene 5'), the outer face on the printed flare and "
        "the wall carried inward along its normal, as scene 2's solid ring carries its "
        "thickness: its metric is diagonal in the fixed cylindrical frame, and the clamped "
        "rim's inner edge rests 0.019 (0.55 % of the size) from its image, where the flare "
-       "leaves the upright rim at 22 degrees (TRADEOFFS, 'Scene 5: which flare'). The "
+       "leaves the upright rim at 22 degrees (SCENES.md, 'Scene 5'). The "
        "section filtered over four wall thicknesses, run 1200 iterations, is the one whose "
        "growth the 3D shell follows (the departure in the table).",
 }
 
 # Why a scene's self-reported number and its number on its mesh refined once stay more than
-# AGREE apart, where they do (numbers in docs/TRADEOFFS.md)
+# AGREE apart, where they do (numbers in docs/VERIFICATION.md)
 DISAGREE: dict[int, str] = {
     2: "Refined below self-reported: the run's clouds are quadrature points of degree 2, the "
        "verification's of degree 6, and a ring's cloud turned along itself reads 0.94-1.03 % "
-       "at degree 2 against 0.54-0.66 % at degree 6 (TRADEOFFS, 'The verified number's "
+       "at degree 2 against 0.54-0.66 % at degree 6 (VERIFICATION.md, 'The verified number's "
        "sampling'): the self-reported number is its clouds' sampling of the ring more than "
        "its mesh's error (compare the refined state boundary to boundary, beside it).",
     3: "On its own mesh (16 P2 segments round, one tetrahedron through the wall) the helix's "
@@ -422,7 +422,7 @@ DISAGREE: dict[int, str] = {
        "iteration out of core, PERFORMANCE.md, 'What a refined-twice check would need'), "
        "continued from x1 57 min (this run's refined-twice check, PERFORMANCE.md, "
        "'Continued'), and that check is the one beside this row: 0.215 %, settled; the "
-       "optimisation there not run (TRADEOFFS, 'Scene 3: which helix').",
+       "optimisation there not run (SCENES.md, 'Scene 3').",
 }
 
 
@@ -684,8 +684,8 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
              "diameter): between the two bodies' clouds of points, the quadrature points of "
              "degree 6 at least (denser than most runs optimise with: a body slid along "
              "itself reads apart by up to its clouds' spacing, and at degree 6 every scene's "
-             "optimum reads within 0.09 points of its surface number: docs/TRADEOFFS.md, "
-             "'The verified number's sampling', 'Denser clouds on every scene's optimum'); "
+             "optimum reads within 0.09 points of its surface number: docs/VERIFICATION.md, "
+             "'The verified number's sampling'); "
              "*surface to surface* is the same verified state measured between the body's "
              "boundary and the target's, which has no sampling. The wall time is the whole "
              "run's, the verification's share in brackets; 2 ranks unless said. Two "
@@ -730,7 +730,7 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
         if rho_tt is not None and square_above is not None:
             lines += [f"Second, above the floor rho_H(T, T) = {rho_tt:.4g} (the value rho_H "
                       f"takes when the body is the target): {square_above:.4g}"
-                      f"{_sensitivity(fixed, free, rho_tt)} (TRADEOFFS, 'The fixed/free "
+                      f"{_sensitivity(fixed, free, rho_tt)} (SCENES.md, 'The fixed/free "
                       "ratio, compared fairly')."]
         lines.append("")
     lines += _cube_ratios(summaries, square_above)
@@ -740,10 +740,10 @@ def results_markdown(rows: list[tuple[Scene, RunSummary | None]], out: Path,
               "measure about why. The studies quoted there were verified with clouds of "
               "degree 2, the verification's up to the twelfth reproduction; measured on the "
               "twelfth's optima, degree 6 moves a scene by at most 0.15 points, except "
-              "scene 2's ring, 0.37 points down (TRADEOFFS, 'Denser clouds on every scene's "
-              "optimum'). Beside each, its self-reported number against its own mesh "
+              "scene 2's ring, 0.37 points down (VERIFICATION.md, 'The verified number's "
+              "sampling'). Beside each, its self-reported number against its own mesh "
               f"refined once: within {AGREE:g}x either way, the optimum does not lean on "
-              "its mesh's error (TRADEOFFS, 'Checking a new body', step 3).", ""]
+              "its mesh's error (HOWTO.md, 'Check a result', step 3).", ""]
     chosen = best_runs(rows)
     for number in range(1, 6):
         if number not in chosen:
@@ -837,7 +837,7 @@ def _cube_ratios(summaries: dict[str, RunSummary | None], square_above: float | 
             f"same start, beside the paper's {PAPER_RATIO}{square}:", "", *lines, "",
             "Why the cube's ratio stays far from the square's (the cube keeps its height "
             "through lambda_3, its faces free, where plane strain holds them), and the same "
-            "starts measured at h 1: docs/TRADEOFFS.md, 'The fixed/free ratio, compared "
+            "starts measured at h 1: docs/SCENES.md, 'The fixed/free ratio, compared "
             "fairly'.", ""]
 
 

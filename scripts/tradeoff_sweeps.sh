@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The sweeps behind docs/TRADEOFFS.md: one-at-a-time sweeps around a coarse base model of
+# The sweeps behind docs/MODELS.md's choices: one-at-a-time sweeps around a coarse base model of
 # scene 1 (beam_wave), scene 4 (disk_cone) and scene 6 (square_circle, 2D against 3D), each
 # optimum judged on a fine reference: one fine mesh (first sweeps), or each point's own
 # mesh refined once (--reference mesh.refine=1, "nested"; the growth carries over exactly).

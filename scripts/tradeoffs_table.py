@@ -1,4 +1,4 @@
-"""Markdown tables of the sweeps made by scripts/tradeoff_sweeps.sh (for docs/TRADEOFFS.md).
+"""Markdown tables of the sweeps made by scripts/tradeoff_sweeps.sh (for docs/MODELS.md).
 
     .venv/bin/python scripts/tradeoffs_table.py [results/tradeoffs]
 """

@@ -1,9 +1,9 @@
 #!/bin/bash
-# The measurements behind docs/TRADEOFFS.md "Verified in every run": coarse-to-fine levels
+# The measurements behind docs/VERIFICATION.md "Verified in every run": coarse-to-fine levels
 # against a single level at the finest level, grading towards the clamp, and the physical
 # branch, on scenes 1 (beam_wave) and 4 (disk_cone); every run verified on its finest mesh
 # refined once, from rest.  2 ranks each; about two hours on 2 cores.  The one-level runs on
-# the configs' own meshes are in docs/TRADEOFFS.md "The scene configs re-tuned".
+# the configs' own meshes are the shipped configs' (docs/MODELS.md, "Reduced models").
 #   scripts/verified_sweeps.sh [OUT]    then    .venv/bin/python scripts/verified_table.py OUT
 set -u
 OUT=${1:-results/verified_sweeps}

@@ -262,7 +262,7 @@ def _history(values) -> list[Record]:
 
 
 def test_the_stopping_test_judges_a_window_not_one_step():
-    """The reachable quarter arc's stop (docs/TRADEOFFS.md): J ~ 2.6e-5 still falling 10 %
+    """The reachable quarter arc's stop (docs/VERIFICATION.md, 'Where the stopping test stops'): J ~ 2.6e-5 still falling 10 %
     every 20 iterations, one step changing it by 1.3e-8 (a line search's trials above it
     changing the best by nothing) must not stop the run; a best J that moved by less than
     ftol_rel |J| over the whole window must, whatever the scale of J."""

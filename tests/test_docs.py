@@ -95,7 +95,11 @@ def test_shell_lines_name_real_targets_commands_and_files(block):
     from shapegrowth.commands.cli import build_parser
 
     targets = _make_targets()
+    copied = set()  # files a `cp` earlier in the block makes
     for words in _command_lines(block):
+        if words[0] == "cp":
+            copied.add(words[-1])
+            continue
         if words[0] == "mpirun":  # mpirun -n N [--oversubscribe] PROGRAM ...
             words = words[3:] if words[1] == "-n" else words[1:]
             words = [w for w in words if w != "--oversubscribe"]
@@ -109,7 +113,7 @@ def test_shell_lines_name_real_targets_commands_and_files(block):
             build_parser().parse_args(args)  # an unknown option exits (status 2)
             for a in args:
                 if a.endswith((".yaml", ".yml")):
-                    assert (ROOT / a).is_file(), f"{block.id}: {a} does not exist"
+                    assert (ROOT / a).is_file() or a in copied, f"{block.id}: {a} does not exist"
         elif program.endswith("bin/python") and args and args[0].endswith(".py"):
             assert (ROOT / args[0]).is_file(), f"{block.id}: {args[0]} does not exist"
 
@@ -265,3 +269,65 @@ def test_the_readme_is_short_and_its_paragraphs_too():
     assert not long, long
     assert not re.findall(r"\d+(?:\.\d+)? %", text), "README quotes a percentage"
     assert "docs/RESULTS.md" in text
+
+
+# The pages that explain (Diataxis's "explanation"): each states today's answer with the
+# measurement behind it; the measurements as they were made live in docs/history/
+EXPLANATION = ("MODELS.md", "VERIFICATION.md", "STABILITY.md", "PERFORMANCE.md",
+               "REPRODUCIBILITY.md", "SCENES.md")
+_HISTORY = "history/"
+
+
+@pytest.mark.parametrize("page", EXPLANATION)
+def test_an_explanation_page_is_at_most_about_300_lines_and_says_today_s_answer(page):
+    text = (ROOT / "docs" / page).read_text()
+    assert len(text.splitlines()) <= 300, f"{page}: {len(text.splitlines())} lines"
+    assert not re.search(r"\b(?:the )?(?:\w+teenth|\w+tieth|\w+th) reproduction against",
+                         text), f"{page} compares reproductions by their order"
+
+
+def test_nothing_outside_the_history_depends_on_it():
+    """docs/history/ is the lab notebook: only the docs' maps link it (the folder's index),
+    and no code, config, script, test or other page cites a page in it."""
+    maps = {ROOT / "README.md", ROOT / "docs" / "INSTALL.md"}
+    citing = []
+    for path in _tracked_text_files():
+        if _HISTORY in str(path.relative_to(ROOT)) or path == Path(__file__):
+            continue
+        for match in re.finditer(r"history/[A-Za-z0-9_./-]*", path.read_text(errors="replace")):
+            if path in maps and match.group() in ("history/", "history/README.md"):
+                continue
+            citing.append(f"{path.relative_to(ROOT)}: {match.group()}")
+    assert not citing, citing
+
+
+_PAGES = "|".join(p.stem for p in (ROOT / "docs").glob("*.md"))
+# a page named with the section it cites, as docs/MODELS.md, "Reduced models" (or linked)
+_CITED_SECTION = re.compile(r"\b(" + _PAGES + r")\.md(?:\]\([^)]*\))?,\s+[\\]?([\"'])(.+?)(?:[\\]?\2|$)",
+                            re.MULTILINE)
+
+
+def _headings(page: str) -> list[str]:
+    text = (ROOT / "docs" / f"{page}.md").read_text()
+    return [h.strip().strip("#").strip().strip("`") for h in text.splitlines()
+            if h.startswith("#")]
+
+
+def test_every_cited_section_is_a_heading_of_its_page():
+    """A citation of a section ("docs/PERFORMANCE.md, 'Continued'") names a heading of that
+    page (the heading may go on where a line or a string ends), so moving a section breaks a
+    test, not a reader's search."""
+    missing = []
+    for path in _tracked_text_files():
+        if _HISTORY in str(path.relative_to(ROOT)):
+            continue
+        text = path.read_text(errors="replace")
+        for match in _CITED_SECTION.finditer(text):
+            page, cited = match.group(1), match.group(3).rstrip(" \"'\\")
+            cited = cited.split("(")[0].strip() if cited.endswith("(") else cited
+            if not cited or not (cited[0].isupper() or cited[0] in "`"):
+                continue  # a sentence, not a section's name
+            heads = _headings(page)
+            if not any(h.startswith(cited) or cited.startswith(h) for h in heads):
+                missing.append(f"{path.relative_to(ROOT)}: {page}.md, {cited!r}")
+    assert not missing, missing

@@ -253,8 +253,7 @@ SOLID_CONE = ('["(r - 0.625*x3/sqrt(1.390625))*cos(theta)", '
 @pytest.mark.mpi
 def test_scene_4s_solid_cone_carries_the_wall_along_the_printed_cones_normal():
     """Scene 4's printed cone (a shear of the flat disk, its fibres
-    kept vertical, C_r3 = 5/8) read as the solid cone (docs/TRADEOFFS.md, 'Scene 4: which
-    cone', configs/disk_cone.yaml): the mid-surface on the printed cone, the wall carried along its normal
+    kept vertical, C_r3 = 5/8) read as the solid cone (docs/SCENES.md, 'Scene 4', configs/disk_cone.yaml): the mid-surface on the printed cone, the wall carried along its normal
     n = (-c e_r + E3) / s undistorted, c = 5/8, s = sqrt(1 + c^2).  In the cylindrical frame its metric is diagonal (the
     paper's fixed frame can hold it): C_rr = s^2, C_thth = ((r - c X3 / s) / r)^2,
     C_33 = 1, where the printed map's is not (C_r3 = c).  Its faces lie t/2 (s - 1) / s

@@ -133,7 +133,7 @@ def _checkpointed(path: Path) -> int:
 
 @pytest.mark.slow
 def test_the_stopping_test_stops_a_reachable_arc_at_its_floor(tmp_path):
-    """The reachable quarter arc at t/L = 1/25 with every optimizer default (docs/TRADEOFFS.md,
+    """The reachable quarter arc at t/L = 1/25 with every optimizer default (docs/VERIFICATION.md,
     "Where the stopping test stops"): NLopt's one-step test stopped it converged after 84
     iterations at 0.444 % verified, the old default budget of 100 at 0.371 %; the window's
     test lets it reach its floor before the default budget (measured: converged after 354

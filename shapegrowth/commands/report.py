@@ -59,7 +59,7 @@ def report_run(summary: RunSummary, settled: Settled, out: Path,
 def report_budget(history: Sequence[Record], window: int) -> None:
     """Where the budget, not the stopping test, ended a run that was still improving: the
     last stage's J over the stopping test's window (a quarter arc's 100 iterations end at
-    0.37 % verified, its floor 0.076 % after 396: docs/TRADEOFFS.md)."""
+    0.37 % verified, its floor 0.076 % after 396: docs/VERIFICATION.md)."""
     if not history:
         return
     # the last stage's J only: a new level or alpha changes what J measures

@@ -17,7 +17,7 @@ instead (the mesh keys are then not replaced by the sweep's finest): the refined
 mesh is nested in the point's, so the optimal growth carries over exactly and the
 reference error is the discretisation error of the state alone.  On a non-nested
 finer mesh a growth field with a sharp peak is itself changed by interpolation;
-docs/TRADEOFFS.md measures the difference.
+the nested reference leaves that out.
 
 Every point also verifies itself as every run does (``verify.*``: its own mesh refined
 ``verify.refine`` times, from rest): ``relative_error_verified``.

@@ -97,7 +97,7 @@ class StabilityPenaltyConfig:
         "frequencies for unit density, as summary.json stability reports them) are held above "
         "this by the penalty weight x sum_i max(0, 1 - omega_i^2 / min_eigenvalue)^2 added to "
         "J (exact gradient; an eigenproblem per evaluation; null: off)", None, gt=0)
-    # measured on the 3D disk (docs/TRADEOFFS.md, "Stability"): weight 1 outweighs the shape
+    # measured on the 3D disk (docs/STABILITY.md, "Stability"): weight 1 outweighs the shape
     # term tenfold (J 3.76 against rho_H 0.50 at the start) and ends at 41 % verified
     weight: float = option("the penalty's weight, in the objective's units", 0.01, gt=0)
     modes: int = option("the lowest eigenvalues the penalty sees (a symmetric body's modes "
@@ -113,20 +113,21 @@ class OptimizerConfig:
     max_iterations: int = option(
         "the most iterations: a ceiling, the run's price; the window test (`ftol_rel` over "
         "`ftol_window`) stops a run at its mesh's floor first (a reachable quarter arc: "
-        "converged at 396, docs/TRADEOFFS.md, \"Where the stopping test stops\")", 1000, ge=0)
+        "converged at 396, docs/VERIFICATION.md, \"Where the stopping test stops\")", 1000, ge=0)
     ftol_rel: float = option("stop when the best objective has fallen by less than this "
                              "times |J| over the last `ftol_window` iterations (0: never)",
                              1.0e-6, ge=0)
     ftol_window: int = option("the iterations over which `ftol_rel` judges progress (one "
                               "step's change stops L-BFGS in a slow stretch, long before "
-                              "its discretisation's floor: docs/TRADEOFFS.md)", 20, ge=1)
+                              "its discretisation's floor: docs/VERIFICATION.md)", 20, ge=1)
     xtol_rel: float = option("stop on relative design change below this", 0.0, ge=0)
     move_limit: float = option("MMA works in a box of +- this around the current design "
                                "(0: the whole bounds); SLSQP always uses the whole bounds",
                                0.3, ge=0)
     restart_every: int = option("evaluations before the box is re-centred", 10, ge=2)
     stability: StabilityPenaltyConfig = option(
-        "stable optima on request (docs/TRADEOFFS.md, \"Stability\")", StabilityPenaltyConfig())
+        "stable optima on request (docs/STABILITY.md, \"Stable optima on request\")",
+        StabilityPenaltyConfig())
     from_rest_every: int = option(
         "the physical branch: every this many iterations the next state is solved from rest "
         "(as the body grows) and the warm starts go on from there (0: never)", 0, ge=0)
@@ -231,7 +232,7 @@ class VerifyConfig:
         "growth.degree): 2 holds the section's growth on a 3D mesh no finer than the "
         "section's with less interpolation (scene 2's section on its strip refined twice, "
         "149 379 DOFs: 1.25 % with 1, 1.03 % with 2, the strip leaving the section by "
-        "1.04 % and 0.27 %: docs/TRADEOFFS.md)", None, ge=1, le=2)
+        "1.04 % and 0.27 %: docs/MODELS.md)", None, ge=1, le=2)
 
 
 @dataclass(frozen=True)

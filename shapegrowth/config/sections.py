@@ -181,7 +181,7 @@ class AnglesConfig:
         "bounds per angle (default [0, 2pi], [0, pi], [0, 2pi]; 2D: [0, 2pi]); in 3D a third "
         "pair from -pi ([-pi, pi]) lets a frame turn both ways about one axis with its "
         "angles continuous (growth.start: target keeps the axes in one hemisphere then; "
-        "docs/TRADEOFFS.md, scene 6 in 3D)", None)
+        "docs/SCENES.md, scene 6)", None)
 
 
 @dataclass(frozen=True)
@@ -194,8 +194,8 @@ class GrowthConfig:
         "a thin wall's designed fields: 'free' (a value at every node) or 'uniform' (one value "
         "across the wall, each column of nodes through it at its mean, after the filter: the "
         "design stretches the mid-surface and bends the wall only through the fields it does "
-        "not design, such as the target's metric with start: target; docs/TRADEOFFS.md, "
-        "'Scene 4: which cone')", "free", choices=("free", "uniform"))
+        "not design, such as the target's metric with start: target; docs/SCENES.md, "
+        "'Scene 4')", "free", choices=("free", "uniform"))
     degree: int | None = option(
         "polynomial degree of the growth fields (default: 2 on the curved hexahedra of a "
         "tube, annulus or cylinder shell in 3D, whose bilinear fields miss the linear "

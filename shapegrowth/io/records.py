@@ -110,7 +110,7 @@ class Verified:
 
 
 # A verified number holds when the mesh refined once more moves it by less than this share
-# of its distance to the scenes' 1 % (docs/TRADEOFFS.md, 'The verification, verified'): a
+# of its distance to the scenes' 1 % (docs/VERIFICATION.md, 'The verification, verified'): a
 # number the next refinement could carry across 1 % does not decide a scene.
 SETTLED_SHARE = 1.0 / 3.0
 ONE_PERCENT = 0.01

@@ -43,7 +43,7 @@ class FromRestEvery(Callback):
     next one is solved from rest, as the body grows, and the warm starts continue from that
     equilibrium.  A thin body can have several equilibria for one growth; the optimiser's
     warm starts follow their own path among them, and only the one reached from rest is
-    what growing the body does (docs/TRADEOFFS.md)."""
+    what growing the body does (docs/STABILITY.md)."""
 
     def __init__(self, problem: Restartable, every: int):
         self.problem, self.every = problem, every

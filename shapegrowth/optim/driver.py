@@ -42,7 +42,7 @@ converged when its best J has fallen by less than ``ftol_rel`` times |J| over th
 quarter arc (t/L = 1/25) one L-BFGS step's change of 1.3e-8 fell under the debiased
 objective's absolute test (ftol_rel x rho_H(T, T) = 7.9e-8) at iteration 84, 0.444 %
 verified, while J still fell 10 % every 20 iterations (0.089 % verified after 300;
-docs/TRADEOFFS.md, "Where the stopping test stops").  Relative to |J| itself the debiased
+docs/VERIFICATION.md, "Where the stopping test stops").  Relative to |J| itself the debiased
 S, which tends to its discretisation's floor rather than to 0, is judged by its own
 progress.  A stall (L-BFGS's line search finding no decrease) still ends a stage.
 

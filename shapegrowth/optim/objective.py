@@ -31,8 +31,8 @@ from .complexity import complexity_density
 # A verification measures with clouds of at least this quadrature degree, whatever the run
 # optimised with (objective.hausdorff.quadrature_degree 1 or 2 is cheaper to optimise with:
 # docs/PERFORMANCE.md), so that verified numbers compare from run to run.  Degree 6, not 2:
-# measured on every scene's optimum (docs/TRADEOFFS.md, 'Denser clouds on every scene's
-# optimum'), degree 6 reads within 0.09 points of surface to surface on every run, degree 2
+# measured on every scene's optimum (docs/VERIFICATION.md, 'The verified number's
+# sampling'), degree 6 reads within 0.09 points of surface to surface on every run, degree 2
 # up to 0.40 points above it where the material slid along the target (scene 2's ring:
 # 1.03 % at degree 2, 0.66 % at 6, 0.64 % surface to surface); the clouds cost seconds,
 # the solve from rest minutes.  They measure only: the state is solved from the run's own
@@ -186,7 +186,7 @@ class Objective:
         target, so a change relative to S itself would never be small; rho_H(T, T), the value
         rho_H of (2.9) takes there, is the scale the paper form's relative change sees.  0 for
         the paper form.  (The optimiser's stopping test is relative to J itself: its floor is
-        the mesh's, docs/TRADEOFFS.md.)"""
+        the mesh's: docs/VERIFICATION.md, 'Where the stopping test stops'.)"""
         if not self.divergence.debiased:
             return 0.0
         return self.divergence.target_self(self.target, self.comm)
@@ -264,7 +264,7 @@ class Objective:
         where the two bodies are one set): that part is sampling, not shape.  Between the
         boundaries there is no sampling, and the boundary is measured where it is (a
         volume's quadrature points lie inside its cells), so this distance can read higher
-        than the clouds' as well as lower (docs/TRADEOFFS.md, "The verified number's
+        than the clouds' as well as lower (docs/VERIFICATION.md, "The verified number's
         sampling")."""
         if self._face is None and self._boundary is None:
             if self._boundary_of is None:

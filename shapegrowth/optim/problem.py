@@ -222,8 +222,8 @@ class ReducedFunctional:
         verification's is: a growth then reaches one equilibrium from rest in the run and
         in its verification.  Measured on scene 4's solid cone: the second level's start,
         its carried cone lost, grew the unwatched state from rest into the mirror cone (J
-        0.74 against 2.4e-3) where the watched path switches onto the cone (TRADEOFFS,
-        'Scene 4: which cone')."""
+        0.74 against 2.4e-3) where the watched path switches onto the cone (SCENES.md,
+        'Scene 4')."""
         state = self.model.state
         if state.at_rest and self.cfg.solver.branch == "switch":
             return solve_watched(state, "switch")[0]

@@ -20,7 +20,7 @@ mode crosses eps, and the sum over all modes below eps stays smooth where a symm
 pairs of equal eigenvalues split (their sum is a trace).
 
 Why a penalty and not a constraint: L-BFGS, the default optimiser, takes none, and a penalty
-serves the three optimisers alike (docs/TRADEOFFS.md, "Stability").
+serves the three optimisers alike (docs/STABILITY.md, "Stability").
 """
 
 from __future__ import annotations

@@ -288,7 +288,7 @@ def unstable_since(stability: Stability | None) -> str | None:
 def unstable_tag(stability: Stability | None) -> str:
     """What a verified number on an unstable equilibrium says beside it: a shape a real body
     leaves (a symmetric mesh can hold the symmetric path past its bifurcation; scene 4's disk
-    on hexahedra: 0.68 % unstable, docs/TRADEOFFS.md)."""
+    on hexahedra: 0.68 % unstable, docs/STABILITY.md)."""
     where = unstable_since(stability)
     if where is None:
         return ""
