@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from shapegrowth.shape import cellgrid, kernels
+from shapegrowth.shape import cellgrid, kernels, pairs
 from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff
 
 RNG = np.random.default_rng(2)
@@ -42,11 +42,10 @@ def throughput(n: int = 20000) -> None:
     q = cellgrid.as3(b.points)
     gmin = np.zeros(n)
     radius = np.full(n, np.inf)
-    args = (q, grid.xyz, grid.weights, grid.origin, grid.cell, grid.shape, grid.start, gmin,
-            radius, 1000.0, kernels.CUTOFF, kernels.TAPER, False, True)
+    taper = pairs.Taper.of(1000.0, kernels.CUTOFF, kernels.TAPER)
+    args = (q, (grid.xyz, grid.weights), grid.cells, gmin, radius, taper, False, True)
     t_val = timed(lambda: kernels.soft_values(*args))
-    src = (q, grid.xyz, grid.origin, grid.cell, grid.shape, grid.start, gmin, radius, 1000.0,
-           kernels.CUTOFF, kernels.TAPER, False, np.ones(n), 8)
+    src = (q, grid.xyz, grid.cells, gmin, radius, taper, False, np.ones(n), 8)
     t_src = timed(lambda: kernels.soft_source_gradient(*src))
     print(f"brute force, {n} x {n} pairs, float64:")
     print(f"  values + query gradients: {n * n / t_val:.3g} pairs/s")

@@ -17,7 +17,7 @@ import pstats
 
 import numpy as np
 
-from shapegrowth.commands import bench
+from shapegrowth.commands import bench, launch
 from shapegrowth.config import load
 from shapegrowth.optim.problem import ReducedFunctional
 from shapegrowth.optim.taylor import smooth_direction
@@ -31,8 +31,8 @@ def main() -> None:
     parser.add_argument("--set", dest="overrides", action="append", default=[])
     parser.add_argument("--top", type=int, default=14)
     args = parser.parse_args()
-    cfg = load(bench.DEFAULT_CONFIG, bench.DEFAULT_OVERRIDES + [f"mesh.size={args.size}"]
-               + args.overrides)
+    cfg = load(launch.shipped_configs() / bench.DEFAULT_CONFIG,
+               bench.DEFAULT_OVERRIDES + [f"mesh.size={args.size}"] + args.overrides)
     model = ForwardModel.build(cfg)
     rf = ReducedFunctional(model)
     m = rf.current()

@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from shapegrowth import config
-from shapegrowth.commands import bench
+from shapegrowth.commands import bench, launch
 from shapegrowth.optim.problem import ReducedFunctional
 from shapegrowth.physics.model import ForwardModel
 from shapegrowth.shape.divergence import ShapeDivergence
@@ -33,7 +33,7 @@ def main() -> None:
     parser.add_argument("--size", type=float, default=0.0125)
     parser.add_argument("--repeat", type=int, default=10)
     args = parser.parse_args()
-    cfg = config.load(bench.DEFAULT_CONFIG,
+    cfg = config.load(launch.shipped_configs() / bench.DEFAULT_CONFIG,
                       [*bench.DEFAULT_OVERRIDES, f"mesh.size={args.size}"])
     rf = ReducedFunctional(ForwardModel.build(cfg), Timer())
     rf.evaluate(rf.current())  # the state from rest

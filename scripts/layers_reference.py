@@ -39,6 +39,7 @@ PAPER = {
     "physics/builders.py": "Figs. 2, 6, 9",
     "shape/hausdorff.py": "(2.9)",
     "shape/kernels.py": "(2.9)",
+    "shape/pairs.py": "(2.9)",
     "shape/divergence.py": "(2.9)",
     "shape/targets.py": "(5.14)-(5.16)",
     "optim/complexity.py": "(2.14)-(2.15), Sect. 2.4",

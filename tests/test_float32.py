@@ -69,6 +69,7 @@ def test_one_sweep_gives_the_two_passes_sums(with_gradient):
 
     from shapegrowth.shape import kernels32, sweep32
     from shapegrowth.shape.cellgrid import SourceGrid
+    from shapegrowth.shape.pairs import Taper
 
     a, b = beams()
     alpha, beta, cut, width = 200.0, 2.0, 14.0, 2.0
@@ -78,18 +79,19 @@ def test_one_sweep_gives_the_two_passes_sums(with_gradient):
     grid = SourceGrid.build(a.points, a.weights, float(np.median(radius)), local32=True)
     top, total = grid.weights.max(), grid.weights.sum()
     w32 = (grid.weights / top).astype(np.float32)
-    args = (queries, grid.local32, grid.box32, grid.origin, grid.cell, grid.shape, grid.start,
-            gmin, radius, alpha, cut, width)
+    walk = (grid.cells, gmin, radius, Taper.of(alpha, cut, width, "float32"))
+    sources = (grid.local32, grid.box32, w32)
     qscale = b.weights / b.weights.max()
     Z, V, P, acc = sweep32.soft_values_scatter32(
-        *args[:3], w32, *args[3:], with_gradient, qscale, beta, np.log(top / total), 4)
-    Z2, V2, P2 = kernels32.soft_values32(*args[:3], w32, *args[3:], with_gradient, 4)
+        queries, sources, *walk, with_gradient,
+        sweep32.Coefficient(qscale, alpha, beta, float(np.log(top / total))), 4)
+    Z2, V2, P2 = kernels32.soft_values32(queries, sources, *walk, with_gradient, 4)
     assert np.allclose(Z, Z2, rtol=1e-6, atol=0) and np.allclose(P, P2, rtol=1e-5, atol=0)
     assert np.abs(V - V2).max() <= 1e-5 * np.abs(V2).max()
     d = gmin - (np.log(Z2) + np.log(top / total)) / alpha
     coef = qscale * (alpha * d) ** (beta - 1.0) / Z2
     acc2 = coef.max() * kernels32.soft_source_gradient32(
-        *args, (coef / coef.max()).astype(np.float32), 4)
+        queries, sources[:2], *walk, (coef / coef.max()).astype(np.float32), 4)
     assert np.abs(acc - acc2).max() <= 1e-5 * np.abs(acc2).max()
 
 
@@ -100,6 +102,7 @@ def test_balls_over_many_cells_sum_as_float64():
 
     from shapegrowth.shape import kernels, kernels32, sweep32
     from shapegrowth.shape.cellgrid import SourceGrid
+    from shapegrowth.shape.pairs import Taper
 
     a, b = beams()
     queries = np.concatenate([b.points[:40], b.points[:5] + [0.0, 0.0, 0.3]])
@@ -107,13 +110,15 @@ def test_balls_over_many_cells_sum_as_float64():
     gmin = cKDTree(a.points).query(queries)[0]
     radius = gmin + cut / alpha
     grid = SourceGrid.build(a.points, a.weights, 0.01, local32=True)
-    args = (grid.origin, grid.cell, grid.shape, grid.start, gmin, radius, alpha, cut, width)
-    Z, V, P = kernels.soft_values(queries, grid.xyz, grid.weights, *args, False, True)
+    Z, V, P = kernels.soft_values(queries, (grid.xyz, grid.weights), grid.cells, gmin, radius,
+                                  Taper.of(alpha, cut, width), False, True)
     w32 = grid.weights.astype(np.float32)
-    Z1, V1, P1 = kernels32.soft_values32(queries, grid.local32, grid.box32, w32, *args, True, 4)
-    ones = np.ones(len(queries))
-    Z2, V2, P2, _ = sweep32.soft_values_scatter32(queries, grid.local32, grid.box32, w32,
-                                                     *args, True, ones, 2.0, 0.0, 4)
+    walk = (grid.cells, gmin, radius, Taper.of(alpha, cut, width, "float32"))
+    Z1, V1, P1 = kernels32.soft_values32(queries, (grid.local32, grid.box32, w32), *walk, True,
+                                         4)
+    ones = sweep32.Coefficient(np.ones(len(queries)), alpha, 2.0, 0.0)
+    Z2, V2, P2, _ = sweep32.soft_values_scatter32(queries, (grid.local32, grid.box32, w32),
+                                                     *walk, True, ones, 4)
     for z, v in ((Z1, V1), (Z2, V2)):
         assert np.allclose(z, Z, rtol=1e-5, atol=0)
         assert np.abs(v - V).max() <= 1e-5 * np.abs(V).max()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import rank_share, taylor_in_points
@@ -9,6 +11,8 @@ from mpi4py import MPI
 
 from shapegrowth.optim.taylor import taylor_test
 from shapegrowth.shape.hausdorff import PointCloud, SmoothHausdorff, exact_hausdorff
+
+ROOT = Path(__file__).resolve().parents[1]
 
 RNG = np.random.default_rng(11)
 
@@ -253,3 +257,52 @@ def test_distributed_clouds_give_the_serial_numbers():
     assert np.allclose(dist.grad_weights, serial.grad_weights[lo:hi], rtol=1e-11, atol=1e-15)
     assert exact_hausdorff(a_part, b_part, comm) == pytest.approx(
         exact_hausdorff(a, b), rel=1e-15)
+
+
+def test_the_pair_loop_is_written_once_and_its_variants_agree():
+    """shape/pairs.py's template is the only pair loop of the package; its float64 gather,
+    its scatter and its kept gather with the replay give one pair sum, each the other's
+    transpose, against a sum written in numpy; a variant it has no arithmetic for is
+    refused by name."""
+    from shapegrowth.shape import pairs
+
+    import re
+
+    sources = sorted((ROOT / "shapegrowth" / "shape").glob("*.py"))
+    # a pair sum's loop takes each pair's taper (S, -dS/du) of its exponent u
+    loops = {p.name: len(re.findall(r"\bs, ds = \w+\(u, ", p.read_text())) for p in sources}
+    assert {k: v for k, v in loops.items() if v} == {"pairs.py": 1}
+
+    rng = np.random.default_rng(0)
+    xs, ys, zs = (rng.random(37) for _ in range(3))
+    w = rng.random(37) + 0.5
+    q, base, a = (0.3, 0.4, 0.5), 0.05, 0.7
+    taper = pairs.Taper.of(20.0, 6.0, 2.0)
+    r = np.sqrt((q[0] - xs) ** 2 + (q[1] - ys) ** 2 + (q[2] - zs) ** 2)
+    u = np.minimum(20.0 * (r - base), 100.0)
+    t = np.clip((6.0 - u) / 2.0, 0.0, 1.0)
+    S, dS = t * t * (3 - 2 * t), 6 * t * (1 - t) / 2.0
+    e = np.exp(-u)
+    none, acc = (np.zeros(0), np.zeros(0)), tuple(np.zeros(0) for _ in range(4))
+    z, vx, vy, vz, p = pairs.pair_loop("float64", "exp", "sums")(
+        *q, base, taper, 0.0, (xs, ys, zs), w, none, acc)
+    assert z == pytest.approx(np.sum(w * e * S), rel=1e-12)
+    assert p == pytest.approx(np.sum(w * e * dS), rel=1e-12)
+    f = w * e * (S + dS) / r
+    assert np.allclose([vx, vy, vz], [np.sum(f * (q[0] - xs)), np.sum(f * (q[1] - ys)),
+                                      np.sum(f * (q[2] - zs))], rtol=1e-12, atol=0)
+    scattered = tuple(np.zeros(37) for _ in range(4))
+    pairs.pair_loop("float64", "exp", "scatter")(*q, base, taper, a, (xs, ys, zs), w, none,
+                                                 scattered)
+    assert np.allclose(scattered[3], a * e * S, rtol=1e-12, atol=0)
+    assert np.allclose(scattered[0], a * e * (S + dS) / r * (q[0] - xs), rtol=1e-12, atol=0)
+    kept = (np.zeros(37), np.zeros(37))
+    assert pairs.pair_loop("float64", "exp", "sums_kept")(
+        *q, base, taper, 0.0, (xs, ys, zs), w, kept, acc)[0] == pytest.approx(z, rel=1e-12)
+    replayed = tuple(np.zeros(37) for _ in range(4))
+    pairs.pair_loop("float64", "exp", "replay")(*q, base, taper, a, (xs, ys, zs), w, kept,
+                                                replayed)
+    for got, want in zip(replayed, scattered):
+        assert np.allclose(got, want, rtol=1e-12, atol=0)
+    with pytest.raises(ValueError, match="float32, rational"):
+        pairs.pair_loop("float32", "rational", "sums")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -33,6 +34,17 @@ SLAB_CELL = 1.0
 QUERY_BLOCK = 64
 
 
+class Grid(NamedTuple):
+    """The cell grid a query walks: its lowest corner, the cell's edge, the cells along
+    each axis and the CSR offsets of the sorted sources by cell (a record the pair sweeps
+    take whole)."""
+
+    origin: np.ndarray
+    cell: float
+    shape: np.ndarray
+    start: np.ndarray
+
+
 @dataclass
 class SourceGrid:
     """Sources sorted by cell, with the CSR offsets of the cells."""
@@ -50,6 +62,11 @@ class SourceGrid:
     # (ncells, 4) float32 with local32: the lowest and highest y and z offsets of each
     # cell's sources, the box kernels32._slab trims a cell's sources by
     box32: np.ndarray | None = None
+
+    @property
+    def cells(self) -> Grid:
+        """The grid the pair sweeps walk."""
+        return Grid(self.origin, float(self.cell), self.shape, self.start)
 
     @classmethod
     def build(cls, points: np.ndarray, weights: np.ndarray, cell: float | None,

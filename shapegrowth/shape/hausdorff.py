@@ -28,7 +28,7 @@ import numpy as np
 from mpi4py import MPI
 from scipy.spatial import cKDTree
 
-from . import cellgrid, kernels, kernels32, sweep32
+from . import cellgrid, kernels, kernels32, pairs, sweep32
 
 
 def _kdtree_workers() -> int:
@@ -179,6 +179,10 @@ class SmoothHausdorff:
             return 1e300, 1.0
         return float(self.cutoff), float(min(self.taper, self.cutoff))
 
+    def _taper(self, precision: str) -> pairs.Taper:
+        """alpha and the taper (``_cut``) as the pair loops of ``precision`` take them."""
+        return pairs.Taper.of(self.alpha, *self._cut, precision)
+
     def _cutoff_radius(self, gmin: np.ndarray) -> np.ndarray:
         reach = gmin + self.cutoff / self.alpha
         return np.expm1(reach) if self.rational else reach
@@ -243,26 +247,26 @@ class SmoothHausdorff:
         if fused:
             top = float(grid.weights.max(initial=0.0)) or 1.0
             q_top = float(q_weights.max(initial=0.0)) or 1.0
+            coef = sweep32.Coefficient(q_weights[order] / q_top, float(self.alpha),
+                                       float(self.beta), float(np.log(top / total)))
             Z[order], V[order], P[order], scattered = sweep32.soft_values_scatter32(
-                ordered, grid.local32, grid.box32, (grid.weights / top).astype(np.float32),
-                grid.origin, grid.cell, grid.shape, grid.start, gmin[order], radius[order],
-                self.alpha, *self._cut, query_gradient, q_weights[order] / q_top, self.beta,
-                np.log(top / total), _chunks(len(queries)))
+                ordered, (grid.local32, grid.box32, (grid.weights / top).astype(np.float32)),
+                grid.cells, gmin[order], radius[order], self._taper("float32"),
+                query_gradient, coef, _chunks(len(queries)))
             Z *= top
             V *= top
             P *= top
         elif grid.local32 is not None:
             top = float(grid.weights.max(initial=0.0)) or 1.0  # weights as fractions of it
             sums = kernels32.soft_values32(
-                ordered, grid.local32, grid.box32, (grid.weights / top).astype(np.float32),
-                grid.origin, grid.cell, grid.shape, grid.start, gmin[order], radius[order],
-                self.alpha, *self._cut, query_gradient, _chunks(len(queries)))
+                ordered, (grid.local32, grid.box32, (grid.weights / top).astype(np.float32)),
+                grid.cells, gmin[order], radius[order], self._taper("float32"),
+                query_gradient, _chunks(len(queries)))
             Z[order], V[order], P[order] = (top * part for part in sums)
         else:
             Z[order], V[order], P[order] = kernels.soft_values(
-                ordered, grid.xyz, grid.weights, grid.origin, grid.cell,
-                grid.shape, grid.start, gmin[order], radius[order], self.alpha, *self._cut,
-                self.rational, query_gradient)
+                ordered, (grid.xyz, grid.weights), grid.cells, gmin[order], radius[order],
+                self._taper("float64"), self.rational, query_gradient)
         # the shift gmin = g(|q - x_n|) moves the taper: ds/dgmin = -P / Z, dgmin/dq = dg
         offset = queries - grid.xyz[:, index].T
         slope = 1.0 / (1.0 + nearest) if self.rational else np.ones_like(nearest)
@@ -375,12 +379,11 @@ class SmoothHausdorff:
         if grid.local32 is not None:
             top = float(np.abs(coef).max(initial=0.0)) or 1.0  # coefficients as fractions
             return top * kernels32.soft_source_gradient32(
-                ordered, grid.local32, grid.box32, grid.origin, grid.cell, grid.shape, grid.start,
-                d.gmin[order], d.radius[order], self.alpha, *self._cut,
+                ordered, (grid.local32, grid.box32), grid.cells, d.gmin[order],
+                d.radius[order], self._taper("float32"),
                 (coef[order] / top).astype(np.float32), nchunks)
-        return kernels.soft_source_gradient(ordered, grid.xyz, grid.origin, grid.cell,
-                                            grid.shape, grid.start, d.gmin[order],
-                                            d.radius[order], self.alpha, *self._cut,
+        return kernels.soft_source_gradient(ordered, grid.xyz, grid.cells, d.gmin[order],
+                                            d.radius[order], self._taper("float64"),
                                             self.rational, coef[order], nchunks)
 
 

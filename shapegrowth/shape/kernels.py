@@ -12,10 +12,11 @@ any alpha, and no |x|^2 + |y|^2 - 2xy expansion is used.
 Sources are bucketed in the uniform cell grid of cellgrid.py.  A query visits
 only the cells within its cutoff radius, the r where alpha (g(r) - g_min) = c; each
 term is multiplied by a smooth step S(alpha (g(r) - g_min)) that falls from 1 to 0 over
-the last e-folds before c (_taper), so the sum is a C^1 function of the points whichever
+the last e-folds before c (pairs.taper_of), so the sum is a C^1 function of the points whichever
 pairs the grid skips, and the brute force (a single cell) gives the same numbers.
 For phi = exp the pair loops vectorise (AVX-512 here): exp is written out as
-arithmetic (_exp) and the sums may be reassociated.  Measured brute-force
+arithmetic (pairs.exp64) and the sums may be reassociated; the pair loops themselves are
+pairs.py's one template.  Measured brute-force
 throughput on this 2-core machine (benchmarks/hausdorff.py): 1.19e9 pairs/s for
 values with query gradients, 1.12e9 for source gradients, against 3.6e8 and 3.4e8
 with libm's scalar exp.
@@ -23,16 +24,13 @@ with libm's scalar exp.
 
 from __future__ import annotations
 
-import math
 import os
 
 import numba
 import numpy as np
-from llvmlite import ir
 from mpi4py import MPI
-from numba.core import types
-from numba.extending import intrinsic
 
+from . import pairs
 from .cellgrid import _cell_range, _column
 
 # Default cutoff c: a term below exp(-c) of the nearest is dropped, and terms fade out
@@ -69,73 +67,16 @@ def one_thread_per_rank() -> None:
             numba.set_num_threads(1)
 
 
-# Pair loops of phi = exp are vectorised: "reassoc" lets LLVM split the sums over
-# SIMD lanes and _exp below is plain arithmetic, so no libm call stays in the loop
-# (with libm's scalar exp, packing and unpacking the lanes made the vector loop 2.6x
-# slower than the scalar one).  No nnan/ninf: inputs stay checked.  The rational phi
-# needs log1p from libm and keeps the scalar loop.
-_FAST = {"contract", "arcp", "afn"}
-_VECTOR = _FAST | {"reassoc"}
-
-
-_LOG2E = 1.4426950408889634
-_LN2_HI = 6.93147180369123816490e-01  # ln 2 split in two (Cody-Waite): n * _LN2_HI is exact
-_LN2_LO = 1.90821492927058770002e-10
-
-
-@intrinsic
-def _bits_as_float(typingctx, bits):
-    """Reinterpret an int64 bit pattern as a float64 (vectorises to a no-op)."""
-    def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], ir.DoubleType())
-    return types.float64(types.int64), codegen
-
-
-@numba.njit(cache=True, fastmath=_VECTOR, inline="always")
-def _exp(x):
-    """exp(x) for -700 <= x <= 0 in arithmetic that vectorises: x = n ln2 + r with
-    |r| <= ln2 / 2, exp(r) by its Taylor polynomial of degree 12 (remainder < 2e-16),
-    2^n built in the exponent bits.  Max relative error 4.4e-16 on [-100, 0]
-    (tests/test_hausdorff.py).  The polynomial is evaluated by Estrin's scheme: its
-    short dependency chains need fewer live vector registers than Horner's rule
-    (value + gradient pair loop: 1.19e9 against 0.90e9 pairs/s)."""
-    n = math.floor(x * _LOG2E + 0.5)
-    r = (x - n * _LN2_HI) - n * _LN2_LO
-    r2 = r * r
-    r4 = r2 * r2
-    p01 = 1.0 + r
-    p23 = 1.0 / 2.0 + r * (1.0 / 6.0)
-    p45 = 1.0 / 24.0 + r * (1.0 / 120.0)
-    p67 = 1.0 / 720.0 + r * (1.0 / 5040.0)
-    p89 = 1.0 / 40320.0 + r * (1.0 / 362880.0)
-    p1011 = 1.0 / 3628800.0 + r * (1.0 / 39916800.0)
-    p03 = p01 + r2 * p23
-    p47 = p45 + r2 * p67
-    p811 = p89 + r2 * p1011
-    p812 = p811 + r4 * (1.0 / 479001600.0)
-    p = (p03 + r4 * p47) + (r4 * r4) * p812
-    return p * _bits_as_float((int(n) + 1023) << 52)  # a numba intrinsic
-
-
 @numba.njit(cache=True)
 def exp_array(x):
-    """_exp over an array (for its accuracy test)."""
+    """pairs.exp64 over an array (for its accuracy test)."""
     out = np.empty_like(x)
     for i in range(x.shape[0]):
-        out[i] = _exp(x[i])
+        out[i] = pairs.exp64(x[i])
     return out
 
 
-@numba.njit(cache=True, fastmath=_VECTOR, inline="always")
-def _taper(u, cut, inv_width):
-    """The smooth cutoff S(u) and -dS/du: S = 1 up to u = cut - width, 0 from u = cut, the
-    cubic smoothstep between: continuously differentiable with a bounded second derivative,
-    so J stays C^1 with a Lipschitz gradient (what a Taylor test's rate 2 needs); branch-free
-    so the pair loops still vectorise (the quintic, C^2, cost 2-6 % more per pair)."""
-    t = min(max((cut - u) * inv_width, 0.0), 1.0)
-    s = t * t * (3.0 - 2.0 * t)
-    ds = 6.0 * t * (1.0 - t) * inv_width  # -dS/du
-    return s, ds
+_taper = pairs.taper_of("float64")
 
 
 @numba.njit(cache=True)
@@ -148,131 +89,32 @@ def taper_array(u, cut, width):
     return s, ds
 
 
-# Each pair gives e = w exp(-u), u = alpha (g(r) - base) clamped at 100, with
-# g(r) = r (exp) or log(1 + r) (rational), and the taper's S(u) and -dS/du.  The sums are
-#   Z = sum e S,   P = sum e (-dS/du),   V = sum e (S - dS/du) g'(r) (q - x) / r,
-# so that ds/dq = V / Z at a fixed shift and ds/d(base) = -P / Z.  r = 0 only where
-# dx = dy = dz = 0, so 1 / max(r, tiny) multiplies zeros there.  The loops run over
-# slices: with bounds loaded from the grid's offsets LLVM did not vectorise them.  The
-# four pair loops below are spelled out one by one on purpose: each must be a single flat
-# loop with its own fastmath flags for LLVM to vectorise it (a shared helper with a
-# branch or a callback inside the loop kept it scalar).
-
-@numba.njit(cache=True, fastmath=_VECTOR)
-def _span_exp(qx, qy, qz, base, alpha, cut, inv_width, xs, ys, zs, w):
-    """Sums over the given sources: Z, V and P (see soft_values)."""
-    z = 0.0
-    p = 0.0
-    vx = 0.0
-    vy = 0.0
-    vz = 0.0
-    for j in range(xs.shape[0]):
-        dx = qx - xs[j]
-        dy = qy - ys[j]
-        dz = qz - zs[j]
-        r = math.sqrt(dx * dx + dy * dy + dz * dz)
-        u = min(alpha * (r - base), 100.0)
-        e = w[j] * _exp(-u)
-        s, ds = _taper(u, cut, inv_width)
-        z += e * s
-        p += e * ds
-        f = e * (s + ds) / max(r, 1e-300)
-        vx += f * dx
-        vy += f * dy
-        vz += f * dz
-    return z, vx, vy, vz, p
+# The float64 loops over one span of sources (pairs.pair_loop): with the grid's slices as
+# bounds LLVM vectorises them (with bounds loaded from the grid's offsets it did not)
+_SUMS = pairs.pair_loop("float64", "exp", "sums")
+_VALUES = pairs.pair_loop("float64", "exp", "values")
+_RATIONAL = pairs.pair_loop("float64", "rational", "sums")
+_SCATTER = pairs.pair_loop("float64", "exp", "scatter")
+_SCATTER_RATIONAL = pairs.pair_loop("float64", "rational", "scatter")
 
 
-@numba.njit(cache=True, fastmath=_VECTOR)
-def _span_exp_value(qx, qy, qz, base, alpha, cut, inv_width, xs, ys, zs, w):
-    """Z and P alone (for queries that are not design points: no V needed)."""
-    z = 0.0
-    p = 0.0
-    for j in range(xs.shape[0]):
-        dx = qx - xs[j]
-        dy = qy - ys[j]
-        dz = qz - zs[j]
-        r = math.sqrt(dx * dx + dy * dy + dz * dz)
-        u = min(alpha * (r - base), 100.0)
-        e = w[j] * _exp(-u)
-        s, ds = _taper(u, cut, inv_width)
-        z += e * s
-        p += e * ds
-    return z, 0.0, 0.0, 0.0, p
-
-
-@numba.njit(cache=True, fastmath=_FAST)
-def _span_rational(qx, qy, qz, base, alpha, cut, inv_width, xs, ys, zs, w):
-    z = 0.0
-    p = 0.0
-    vx = 0.0
-    vy = 0.0
-    vz = 0.0
-    for j in range(xs.shape[0]):
-        dx = qx - xs[j]
-        dy = qy - ys[j]
-        dz = qz - zs[j]
-        r = math.sqrt(dx * dx + dy * dy + dz * dz)
-        u = min(alpha * (math.log1p(r) - base), 100.0)
-        e = w[j] * math.exp(-u)
-        s, ds = _taper(u, cut, inv_width)
-        z += e * s
-        p += e * ds
-        f = e * (s + ds) / (max(r, 1e-300) * (1.0 + r))
-        vx += f * dx
-        vy += f * dy
-        vz += f * dz
-    return z, vx, vy, vz, p
-
-
-@numba.njit(cache=True, fastmath=_VECTOR)
-def _scatter_exp(qx, qy, qz, base, alpha, cut, inv_width, a, xs, ys, zs, ax, ay, az, b):
-    """The transpose of _span_exp over the given sources."""
-    for j in range(xs.shape[0]):
-        dx = qx - xs[j]
-        dy = qy - ys[j]
-        dz = qz - zs[j]
-        r = math.sqrt(dx * dx + dy * dy + dz * dz)
-        u = min(alpha * (r - base), 100.0)
-        e = a * _exp(-u)
-        s, ds = _taper(u, cut, inv_width)
-        f = e * (s + ds) / max(r, 1e-300)
-        b[j] += e * s
-        ax[j] += f * dx
-        ay[j] += f * dy
-        az[j] += f * dz
-
-
-@numba.njit(cache=True, fastmath=_FAST)
-def _scatter_rational(qx, qy, qz, base, alpha, cut, inv_width, a, xs, ys, zs, ax, ay, az, b):
-    for j in range(xs.shape[0]):
-        dx = qx - xs[j]
-        dy = qy - ys[j]
-        dz = qz - zs[j]
-        r = math.sqrt(dx * dx + dy * dy + dz * dz)
-        u = min(alpha * (math.log1p(r) - base), 100.0)
-        e = a * math.exp(-u)
-        s, ds = _taper(u, cut, inv_width)
-        f = e * (s + ds) / (max(r, 1e-300) * (1.0 + r))
-        b[j] += e * s
-        ax[j] += f * dx
-        ay[j] += f * dy
-        az[j] += f * dz
-
-
-@numba.njit(parallel=True, cache=True, fastmath=_FAST)
-def soft_values(queries, xyz, w, origin, cell, shape, start, gmin, radius, alpha, cut, width,
-                rational, with_gradient):
+@numba.njit(parallel=True, cache=True, fastmath=pairs.FAST)
+def soft_values(queries, sources, grid, gmin, radius, taper, rational, with_gradient):
     """Per query: Z = sum w e S, V = sum w e (S - S') g'(r) (q - x)/r and P = -sum w e S'
-    with e = exp(-alpha (g - gmin)) and the taper S over the last ``width`` of ``cut``
-    (see _taper), so that ds/dq = V / Z at a fixed gmin and ds/dgmin = -P / Z (V may be
-    left zero for phi = exp when ``with_gradient`` is false)."""
+    with e = exp(-alpha (g - gmin)) and the taper S (pairs.Taper), so that ds/dq = V / Z at
+    a fixed gmin and ds/dgmin = -P / Z (V may be left zero for phi = exp when
+    ``with_gradient`` is false).  ``sources``: (xyz, w) sorted by the cells of ``grid``
+    (cellgrid.Grid)."""
     n = queries.shape[0]
+    unused = np.zeros(0)  # for a loop's argument its variant does not use
     Z = np.zeros(n)
     P = np.zeros(n)
     V = np.zeros((n, 3))
+    xyz, w = sources
     xs, ys, zs = xyz[0], xyz[1], xyz[2]
-    inv_width = 1.0 / width
+    origin, cell, shape, start = grid
+    none = (unused, unused)
+    acc = (unused, unused, unused, unused)
     for i in numba.prange(n):
         qx, qy, qz = queries[i, 0], queries[i, 1], queries[i, 2]
         x0, x1 = _cell_range(queries[i], radius[i], origin, cell, shape, 0)
@@ -286,16 +128,16 @@ def soft_values(queries, xyz, w, origin, cell, shape, start, gmin, radius, alpha
         for ix in range(x0, x1 + 1):
             for iy in range(y0, y1 + 1):
                 j0, j1 = _column(qx, qy, qz, radius[i], ix, iy, origin, cell, shape, start)
-                span = (xs[j0:j1], ys[j0:j1], zs[j0:j1], w[j0:j1])
+                src = (xs[j0:j1], ys[j0:j1], zs[j0:j1])
                 if rational:
-                    dz_, dvx, dvy, dvz, dp = _span_rational(qx, qy, qz, base, alpha, cut,
-                                                            inv_width, *span)
+                    dz_, dvx, dvy, dvz, dp = _RATIONAL(qx, qy, qz, base, taper, 0.0, src,
+                                                       w[j0:j1], none, acc)
                 elif with_gradient:
-                    dz_, dvx, dvy, dvz, dp = _span_exp(qx, qy, qz, base, alpha, cut,
-                                                       inv_width, *span)
+                    dz_, dvx, dvy, dvz, dp = _SUMS(qx, qy, qz, base, taper, 0.0, src,
+                                                   w[j0:j1], none, acc)
                 else:
-                    dz_, dvx, dvy, dvz, dp = _span_exp_value(qx, qy, qz, base, alpha, cut,
-                                                             inv_width, *span)
+                    dz_, dvx, dvy, dvz, dp = _VALUES(qx, qy, qz, base, taper, 0.0, src,
+                                                     w[j0:j1], none, acc)
                 z += dz_
                 p += dp
                 vx += dvx
@@ -309,9 +151,8 @@ def soft_values(queries, xyz, w, origin, cell, shape, start, gmin, radius, alpha
     return Z, V, P
 
 
-@numba.njit(parallel=True, cache=True, fastmath=_FAST)
-def soft_source_gradient(queries, xyz, origin, cell, shape, start, gmin, radius, alpha, cut,
-                         width, rational, coef, nchunks):
+@numba.njit(parallel=True, cache=True, fastmath=pairs.FAST)
+def soft_source_gradient(queries, xyz, grid, gmin, radius, taper, rational, coef, nchunks):
     """Given coef_q = cotangent_q * mu_q / Z_q, accumulate per source (sorted order)
     A_s = sum_q coef_q e (S - S') g'(r) (q - x_s)/r   (columns 0-2) and
     B_s = sum_q coef_q e S                             (column 3),
@@ -319,10 +160,12 @@ def soft_source_gradient(queries, xyz, origin, cell, shape, start, gmin, radius,
     Queries are split in nchunks blocks with a buffer each, so the sums do not race
     and their order is fixed."""
     n = queries.shape[0]
+    unused = np.zeros(0)  # for a loop's argument its variant does not use
     m = xyz.shape[1]
     buf = np.zeros((nchunks, 4, m))
     xs, ys, zs = xyz[0], xyz[1], xyz[2]
-    inv_width = 1.0 / width
+    origin, cell, shape, start = grid
+    none = (unused, unused)
     size = (n + nchunks - 1) // nchunks
     for k in numba.prange(nchunks):
         ax, ay, az, b = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
@@ -337,12 +180,12 @@ def soft_source_gradient(queries, xyz, origin, cell, shape, start, gmin, radius,
             for ix in range(x0, x1 + 1):
                 for iy in range(y0, y1 + 1):
                     j0, j1 = _column(qx, qy, qz, radius[i], ix, iy, origin, cell, shape, start)
-                    span = (xs[j0:j1], ys[j0:j1], zs[j0:j1], ax[j0:j1], ay[j0:j1], az[j0:j1],
-                            b[j0:j1])
+                    src = (xs[j0:j1], ys[j0:j1], zs[j0:j1])
+                    acc = (ax[j0:j1], ay[j0:j1], az[j0:j1], b[j0:j1])
                     if rational:
-                        _scatter_rational(qx, qy, qz, base, alpha, cut, inv_width, a, *span)
+                        _SCATTER_RATIONAL(qx, qy, qz, base, taper, a, src, unused, none, acc)
                     else:
-                        _scatter_exp(qx, qy, qz, base, alpha, cut, inv_width, a, *span)
+                        _SCATTER(qx, qy, qz, base, taper, a, src, unused, none, acc)
     total = np.zeros((m, 4))
     for k in range(nchunks):
         for c in range(4):

@@ -27,132 +27,36 @@ Each cell's sources are trimmed to the query's slab in x (_slab): they are sorte
 within their cell, and the slab's width is that of the ball where it meets the box the
 cell's sources fill in y and z.
 
-The loops are spelled out one by one as in kernels.py, for the reason given there (each a
-flat loop with its own fastmath flags, or LLVM does not vectorise it).  Measured against
-float64 on the bench's 50k-DOF state (38 448 + 38 448 points, alpha
-200): see docs/PERFORMANCE.md, "float32 pair sums".
+The pair loops are pairs.py's template compiled in float32.  Measured against float64 on
+the bench's 50k-DOF state (38 448 + 38 448 points, alpha 200): see docs/PERFORMANCE.md,
+"float32 pair sums".
 """
 
 from __future__ import annotations
 
 import numba
 import numpy as np
-from llvmlite import ir
-from numba.core import types
-from numba.extending import intrinsic
 
+from . import pairs
 from .cellgrid import _cell_range, _column_cells
-from .kernels import _VECTOR
 
 _F = np.float32
-_LOG2E = _F(1.4426950408889634)
-_LN2_HI = _F(0.693359375)  # ln 2 = _LN2_HI + _LN2_LO, _LN2_HI with 9 bits: n * _LN2_HI exact
-_LN2_LO = _F(-2.12194440e-4)
-_ZERO, _HALF, _ONE, _TWO, _THREE, _SIX = _F(0), _F(0.5), _F(1), _F(2), _F(3), _F(6)
-_CLAMP = _F(80.0)
-_TINY = _F(1e-30)
-_C2, _C3, _C4, _C5, _C6, _C7 = (_F(1 / 2), _F(1 / 6), _F(1 / 24), _F(1 / 120), _F(1 / 720),
-                                _F(1 / 5040))
-
-
-@intrinsic
-def _bits_as_float32(typingctx, bits):
-    """Reinterpret an int32 bit pattern as a float32 (vectorises to a no-op)."""
-    def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], ir.FloatType())
-    return types.float32(types.int32), codegen
-
-
-@numba.njit(cache=True, fastmath=_VECTOR, inline="always")
-def _exp32(x):
-    """exp(x) for -80 <= x <= 0 in float32 arithmetic: x = n ln2 + r, |r| <= ln2 / 2, exp(r)
-    by its Taylor polynomial of degree 7 (remainder < 6e-9), 2^n in the exponent bits.
-    np.floor, not math.floor: numba's math.floor returns an int64 and the polynomial then
-    ran in float64 (1.25x over the float64 loop instead of 2.5x)."""
-    n = np.floor(x * _LOG2E + _HALF)
-    r = (x - n * _LN2_HI) - n * _LN2_LO
-    r2 = r * r
-    p = (_ONE + r) + r2 * ((_C2 + r * _C3) + r2 * ((_C4 + r * _C5) + r2 * (_C6 + r * _C7)))
-    return p * _bits_as_float32((np.int32(n) + np.int32(127)) << np.int32(23))
+_ZERO = _F(0)
 
 
 @numba.njit(cache=True)
 def exp32_array(x):
-    """_exp32 over a float32 array (for its accuracy test)."""
+    """pairs.exp32 over a float32 array (for its accuracy test)."""
     out = np.empty_like(x)
     for i in range(x.shape[0]):
-        out[i] = _exp32(x[i])
+        out[i] = pairs.exp32(x[i])
     return out
 
 
-@numba.njit(cache=True, fastmath=_VECTOR, inline="always")
-def _taper32(u, cut, inv_width):
-    """kernels._taper in float32."""
-    t = min(max((cut - u) * inv_width, _ZERO), _ONE)
-    s = t * t * (_THREE - _TWO * t)
-    ds = _SIX * t * (_ONE - t) * inv_width
-    return s, ds
-
-
-@numba.njit(cache=True, fastmath=_VECTOR)
-def _cell_sums(qx, qy, qz, base, alpha, cut, inv_width, xs, ys, zs, w):
-    """Z, V and P over one cell's sources (offsets from the corner, as the query's)."""
-    z = _ZERO
-    p = _ZERO
-    vx = _ZERO
-    vy = _ZERO
-    vz = _ZERO
-    for j in range(xs.shape[0]):
-        dx = qx - xs[j]
-        dy = qy - ys[j]
-        dz = qz - zs[j]
-        r = np.sqrt(dx * dx + dy * dy + dz * dz)
-        u = min(alpha * (r - base), _CLAMP)
-        e = w[j] * _exp32(-u)
-        s, ds = _taper32(u, cut, inv_width)
-        z += e * s
-        p += e * ds
-        f = e * (s + ds) / max(r, _TINY)
-        vx += f * dx
-        vy += f * dy
-        vz += f * dz
-    return z, vx, vy, vz, p
-
-
-@numba.njit(cache=True, fastmath=_VECTOR)
-def _cell_values(qx, qy, qz, base, alpha, cut, inv_width, xs, ys, zs, w):
-    """Z and P alone over one cell's sources."""
-    z = _ZERO
-    p = _ZERO
-    for j in range(xs.shape[0]):
-        dx = qx - xs[j]
-        dy = qy - ys[j]
-        dz = qz - zs[j]
-        r = np.sqrt(dx * dx + dy * dy + dz * dz)
-        u = min(alpha * (r - base), _CLAMP)
-        e = w[j] * _exp32(-u)
-        s, ds = _taper32(u, cut, inv_width)
-        z += e * s
-        p += e * ds
-    return z, _ZERO, _ZERO, _ZERO, p
-
-
-@numba.njit(cache=True, fastmath=_VECTOR)
-def _cell_scatter(qx, qy, qz, base, alpha, cut, inv_width, a, xs, ys, zs, ax, ay, az, b):
-    """The transpose of _cell_sums over one cell's sources (float32 accumulators)."""
-    for j in range(xs.shape[0]):
-        dx = qx - xs[j]
-        dy = qy - ys[j]
-        dz = qz - zs[j]
-        r = np.sqrt(dx * dx + dy * dy + dz * dz)
-        u = min(alpha * (r - base), _CLAMP)
-        e = a * _exp32(-u)
-        s, ds = _taper32(u, cut, inv_width)
-        f = e * (s + ds) / max(r, _TINY)
-        b[j] += e * s
-        ax[j] += f * dx
-        ay[j] += f * dy
-        az[j] += f * dz
+# The float32 loops over one cell's slab of sources (pairs.pair_loop)
+_SUMS = pairs.pair_loop("float32", "exp", "sums")
+_VALUES = pairs.pair_loop("float32", "exp", "values")
+_SCATTER = pairs.pair_loop("float32", "exp", "scatter")
 
 
 @numba.njit(cache=True, inline="always")
@@ -194,11 +98,12 @@ def _slab(xs, j0, j1, qx, qy, qz, radius, cell, box):
 
 
 @numba.njit(cache=True)
-def _spans(q, radius, origin, cell, shape, start, xs, box, spans, corners):
-    """The sources the query's ball reaches, as the slabs (_slab) of the cells it meets:
-    each slab's range (j0, j1) in ``spans`` and the query's offsets from its cell's corner
-    in ``corners``.  Returns how many, and the two arrays (new ones, twice as long, where
-    the ones given held too few)."""
+def _spans(q, radius, grid, xs, box, spans, corners):
+    """The sources the query's ball reaches, as the slabs (_slab) of the cells of ``grid``
+    (kernels.Grid) it meets: each slab's range (j0, j1) in ``spans`` and the query's offsets
+    from its cell's corner in ``corners``.  Returns how many, and the two arrays (new ones,
+    twice as long, where the ones given held too few)."""
+    origin, cell, shape, start = grid
     x0, x1 = _cell_range(q, radius, origin, cell, shape, 0)
     y0, y1 = _cell_range(q, radius, origin, cell, shape, 1)
     r32 = _F(radius)
@@ -243,25 +148,27 @@ def _summed(buf):
 
 
 @numba.njit(parallel=True, cache=True)
-def soft_values32(queries, local, box, w, origin, cell, shape, start, gmin, radius, alpha, cut,
-                  width, with_gradient, nchunks):
-    """kernels.soft_values for phi = exp in float32 (``local``: SourceGrid.local32, ``box``:
-    SourceGrid.box32, ``w``: the sorted weights divided by their largest, as float32), the
-    queries split in ``nchunks`` blocks."""
+def soft_values32(queries, sources, grid, gmin, radius, taper, with_gradient, nchunks):
+    """kernels.soft_values for phi = exp in float32: ``sources`` = (local, box, w), the
+    sources' offsets from their cells' corners (SourceGrid.local32), their cells' boxes
+    (SourceGrid.box32) and the sorted weights divided by their largest, as float32;
+    ``taper`` a float32 pairs.Taper; the queries split in ``nchunks`` blocks."""
     n = queries.shape[0]
+    unused = np.zeros(0, dtype=np.float32)  # for a loop's argument its variant does not use
     Z = np.zeros(n)
     P = np.zeros(n)
     V = np.zeros((n, 3))
+    local, box, w = sources
     xs, ys, zs = local[0], local[1], local[2]
-    a32, c32, iw32 = _F(alpha), _F(cut), _F(1.0 / width)
+    none = (unused, unused)
+    acc = (unused, unused, unused, unused)
     size = (n + nchunks - 1) // nchunks
     for k in numba.prange(nchunks):
         spans = np.empty((256, 2), dtype=np.int64)
         corners = np.empty((256, 3), dtype=np.float32)
         for i in range(k * size, min(n, (k + 1) * size)):
-            q = queries[i]
-            count, spans, corners = _spans(q, radius[i], origin, cell, shape, start, xs, box,
-                                           spans, corners)
+            count, spans, corners = _spans(queries[i], radius[i], grid, xs, box, spans,
+                                           corners)
             base = _F(gmin[i])
             z = 0.0
             p = 0.0
@@ -271,13 +178,13 @@ def soft_values32(queries, local, box, w, origin, cell, shape, start, gmin, radi
             for t in range(count):
                 j0, j1 = spans[t, 0], spans[t, 1]
                 qx, qy, qz = corners[t, 0], corners[t, 1], corners[t, 2]
-                span = (xs[j0:j1], ys[j0:j1], zs[j0:j1], w[j0:j1])
+                src = (xs[j0:j1], ys[j0:j1], zs[j0:j1])
                 if with_gradient:
-                    dz_, dvx, dvy, dvz, dp = _cell_sums(qx, qy, qz, base, a32, c32, iw32,
-                                                        *span)
+                    dz_, dvx, dvy, dvz, dp = _SUMS(qx, qy, qz, base, taper, _ZERO, src,
+                                                   w[j0:j1], none, acc)
                 else:
-                    dz_, dvx, dvy, dvz, dp = _cell_values(qx, qy, qz, base, a32, c32, iw32,
-                                                          *span)
+                    dz_, dvx, dvy, dvz, dp = _VALUES(qx, qy, qz, base, taper, _ZERO, src,
+                                                     w[j0:j1], none, acc)
                 z += dz_
                 p += dp
                 vx += dvx
@@ -292,15 +199,16 @@ def soft_values32(queries, local, box, w, origin, cell, shape, start, gmin, radi
 
 
 @numba.njit(parallel=True, cache=True)
-def soft_source_gradient32(queries, local, box, origin, cell, shape, start, gmin, radius, alpha,
-                           cut, width, coef, nchunks):
-    """kernels.soft_source_gradient for phi = exp in float32 (``coef`` divided by its
-    largest magnitude, as float32)."""
+def soft_source_gradient32(queries, sources, grid, gmin, radius, taper, coef, nchunks):
+    """kernels.soft_source_gradient for phi = exp in float32 (``sources`` = (local, box);
+    ``coef`` divided by its largest magnitude, as float32)."""
     n = queries.shape[0]
+    unused = np.zeros(0, dtype=np.float32)  # for a loop's argument its variant does not use
+    local, box = sources
     m = local.shape[1]
     buf = np.zeros((nchunks, 4, m), dtype=np.float32)
     xs, ys, zs = local[0], local[1], local[2]
-    a32, c32, iw32 = _F(alpha), _F(cut), _F(1.0 / width)
+    none = (unused, unused)
     size = (n + nchunks - 1) // nchunks
     for k in numba.prange(nchunks):
         ax, ay, az, b = buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3]
@@ -310,13 +218,12 @@ def soft_source_gradient32(queries, local, box, origin, cell, shape, start, gmin
             a = coef[i]
             if a == _ZERO:
                 continue
-            q = queries[i]
-            count, spans, corners = _spans(q, radius[i], origin, cell, shape, start, xs, box,
-                                           spans, corners)
+            count, spans, corners = _spans(queries[i], radius[i], grid, xs, box, spans,
+                                           corners)
             base = _F(gmin[i])
             for t in range(count):
                 j0, j1 = spans[t, 0], spans[t, 1]
-                _cell_scatter(corners[t, 0], corners[t, 1], corners[t, 2], base, a32, c32,
-                              iw32, a, xs[j0:j1], ys[j0:j1], zs[j0:j1], ax[j0:j1], ay[j0:j1],
-                              az[j0:j1], b[j0:j1])
+                _SCATTER(corners[t, 0], corners[t, 1], corners[t, 2], base, taper, a,
+                         (xs[j0:j1], ys[j0:j1], zs[j0:j1]), unused, none,
+                         (ax[j0:j1], ay[j0:j1], az[j0:j1], b[j0:j1]))
     return _summed(buf)
