@@ -331,3 +331,23 @@ def test_every_cited_section_is_a_heading_of_its_page():
             if not any(h.startswith(cited) or cited.startswith(h) for h in heads):
                 missing.append(f"{path.relative_to(ROOT)}: {page}.md, {cited!r}")
     assert not missing, missing
+
+
+def test_summary_json_s_keys_are_documented_from_the_types_that_write_them():
+    """docs/OUTPUTS.md's table of summary.json's keys is scripts/summary_reference.py's text,
+    generated from RunSummary and the records it holds: a field added without its meaning
+    fails here (KeyError), and a stale page too."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("summary_reference",
+                                                  ROOT / "scripts" / "summary_reference.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    keys = [k for k, _ in module.keys()]
+    assert len(keys) == len(set(keys))
+    assert {"verified.relative", "lifted.relative", "hausdorff_final", "stability.stable",
+            "linear_solver.preset", "dofs.state"} <= set(keys)
+    assert set(module.MEANING) == set(keys), "MEANING names a key no type writes"
+    assert (ROOT / "docs" / "OUTPUTS.md").read_text() == module.page(), \
+        "docs/OUTPUTS.md is stale: run scripts/summary_reference.py"

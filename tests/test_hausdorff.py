@@ -264,9 +264,9 @@ def test_the_pair_loop_is_written_once_and_its_variants_agree():
     its scatter and its kept gather with the replay give one pair sum, each the other's
     transpose, against a sum written in numpy; a variant it has no arithmetic for is
     refused by name."""
-    from shapegrowth.shape import pairs
-
     import re
+
+    from shapegrowth.shape import pairs
 
     sources = sorted((ROOT / "shapegrowth" / "shape").glob("*.py"))
     # a pair sum's loop takes each pair's taper (S, -dS/du) of its exponent u
