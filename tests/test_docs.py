@@ -351,3 +351,19 @@ def test_summary_json_s_keys_are_documented_from_the_types_that_write_them():
     assert set(module.MEANING) == set(keys), "MEANING names a key no type writes"
     assert (ROOT / "docs" / "OUTPUTS.md").read_text() == module.page(), \
         "docs/OUTPUTS.md is stale: run scripts/summary_reference.py"
+
+
+def test_the_command_line_reference_is_generated_from_its_parser():
+    """docs/CLI.md is scripts/cli_reference.py's text: every command with every argument and
+    option the parser takes, and its help."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("cli_reference",
+                                                  ROOT / "scripts" / "cli_reference.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    text = module.markdown()
+    assert "## `shapegrowth verify`" in text and "`--continued`" in text
+    assert (ROOT / "docs" / "CLI.md").read_text() == text, \
+        "docs/CLI.md is stale: run scripts/cli_reference.py"
