@@ -30,7 +30,7 @@ PAGE = ROOT / "docs" / "OUTPUTS.md"
 BEGIN = "<!-- summary keys: scripts/summary_reference.py -->"
 END = "<!-- /summary keys -->"
 
-# key (dotted where nested) -> what it means; "*" for keys of any nesting of a record
+# key (dotted where nested) -> what it means
 MEANING: dict[str, str] = {
     "name": "the config's `name`",
     "status": "`converged`, `max_iterations`, `solved`, or `failed: <reason>` (exit status 1)",
@@ -133,9 +133,8 @@ def _record(hint: object) -> type | None:
 
 # keys a record's to_json adds beside its fields (a property written out)
 _COMPUTED = {Stability: {"lowest": ["stable"]}}
-# who writes a nested record's keys, where not every command does
+# who writes a key and the keys of its record, where not every command does
 _WRITER = {"verified": "run", "lifted": "run, lift"}
-_TOP_WRITER = {"verified": "run"}
 
 
 def keys() -> list[tuple[str, str]]:
@@ -158,7 +157,7 @@ def keys() -> list[tuple[str, str]]:
             if known:  # written by both measures (residual_strain)
                 out[known[0]] = (key, "both")
             else:
-                out.append((key, _TOP_WRITER.get(key, writer)))
+                out.append((key, _WRITER.get(key, writer)))
             for extra in _COMPUTED.get(cls, {}).get(f.name, []):
                 out.append((f"{prefix}{extra}", writer))
             if record in _NESTED and record not in seen:

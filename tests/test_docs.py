@@ -140,11 +140,11 @@ def test_python_blocks_run_as_written(block, tmp_path):
     assert done.returncode == 0, f"{block.id}\n{done.stderr[-3000:]}"
 
 
-def _layers_script():
+def _script(name: str):
+    """scripts/NAME.py as a module (the generators of the pages the tests hold current)."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("layers_reference",
-                                                  ROOT / "scripts" / "layers_reference.py")
+    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -155,7 +155,7 @@ def test_the_layer_map_is_generated_from_the_package_and_names_every_module():
     """docs/LAYERS.md is scripts/layers_reference.py's text (regenerate it after adding a
     module or changing a docstring's first sentence); it names every module once, and the
     paper's equations name modules that exist."""
-    script = _layers_script()
+    script = _script("layers_reference")
     text = (ROOT / "docs" / "LAYERS.md").read_text()
     assert text == script.layers_markdown(), "docs/LAYERS.md is stale: run " \
         "scripts/layers_reference.py"
@@ -337,13 +337,7 @@ def test_summary_json_s_keys_are_documented_from_the_types_that_write_them():
     """docs/OUTPUTS.md's table of summary.json's keys is scripts/summary_reference.py's text,
     generated from RunSummary and the records it holds: a field added without its meaning
     fails here (KeyError), and a stale page too."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("summary_reference",
-                                                  ROOT / "scripts" / "summary_reference.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _script("summary_reference")
     keys = [k for k, _ in module.keys()]
     assert len(keys) == len(set(keys))
     assert {"verified.relative", "lifted.relative", "hausdorff_final", "stability.stable",
@@ -356,13 +350,7 @@ def test_summary_json_s_keys_are_documented_from_the_types_that_write_them():
 def test_the_command_line_reference_is_generated_from_its_parser():
     """docs/CLI.md is scripts/cli_reference.py's text: every command with every argument and
     option the parser takes, and its help."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("cli_reference",
-                                                  ROOT / "scripts" / "cli_reference.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _script("cli_reference")
     text = module.markdown()
     assert "## `shapegrowth verify`" in text and "`--continued`" in text
     assert (ROOT / "docs" / "CLI.md").read_text() == text, \

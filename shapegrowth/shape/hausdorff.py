@@ -172,16 +172,13 @@ class SmoothHausdorff:
     def _g(self, r: np.ndarray) -> np.ndarray:
         return np.log1p(r) if self.rational else r
 
-    @property
-    def _cut(self) -> tuple[float, float]:
-        """(cut, width) of the kernels' taper; no taper for an infinite cutoff."""
-        if not np.isfinite(self.cutoff):
-            return 1e300, 1.0
-        return float(self.cutoff), float(min(self.taper, self.cutoff))
-
     def _taper(self, precision: str) -> pairs.Taper:
-        """alpha and the taper (``_cut``) as the pair loops of ``precision`` take them."""
-        return pairs.Taper.of(self.alpha, *self._cut, precision)
+        """alpha, the cutoff and the taper's width as the pair loops of ``precision`` take
+        them; no taper for an infinite cutoff."""
+        if not np.isfinite(self.cutoff):
+            return pairs.Taper.of(self.alpha, 1e300, 1.0, precision)
+        return pairs.Taper.of(self.alpha, float(self.cutoff),
+                              float(min(self.taper, self.cutoff)), precision)
 
     def _cutoff_radius(self, gmin: np.ndarray) -> np.ndarray:
         reach = gmin + self.cutoff / self.alpha
