@@ -181,12 +181,12 @@ def test_every_wrong_value_of_every_key_is_a_config_error_naming_a_key(tmp_path)
 
 
 def test_a_kind_that_is_not_listed_is_one_line_naming_the_key():
-    raw = {"name": "t", "geometry": {"kind": "file", "length": 1.0}, "mesh": {"size": 0.5},
+    raw = {"name": "t", "geometry": {"kind": "blob", "length": 1.0}, "mesh": {"size": 0.5},
            "boundary": {"clamp": "x1_min"}}
     with pytest.raises(ConfigError) as err:
         from_dict(raw)
-    assert err.value.problems == ["geometry.kind: 'file' is not allowed (allowed: box, tube, "
-                                  "annulus, cylinder_shell, rectangle, cube)"]
+    assert err.value.problems == ["geometry.kind: 'blob' is not allowed (allowed: box, tube, "
+                                  "annulus, cylinder_shell, rectangle, cube, file)"]
 
 
 @pytest.mark.parametrize("kind, cells, dim, degree", [

@@ -25,9 +25,7 @@ def _cloud(config, sets=(), faces=None, degree=4):
     if faces is None:
         facets = boundary_facets(domain.mesh)
     else:
-        tags = domain.facet_tags
-        facets = np.concatenate([tags.indices[tags.values == domain.boundaries[f]]
-                                 for f in faces])
+        facets = domain.facets(tuple(faces))
     return model, FacetCloud(model.state.V, facets, degree)
 
 

@@ -407,7 +407,7 @@ def _top_face_stl(path, lift: float, scale: float = 1.0, turn: float = 0.0):
     cfg = load(CONFIGS / "tiny" / "beam_wave.yaml", ["objective.compare=top"])
     domain = ForwardModel.build(cfg).domain
     mesh = domain.mesh
-    top = domain.facet_tags.indices[domain.facet_tags.values == domain.boundaries["x3_max"]]
+    top = domain.boundaries["x3_max"]
     nodes = compat.entities_to_geometry(mesh, 2, top)
     if mesh.topology.cell_type.name == "hexahedron":  # quadrilaterals: vertices 0 1 / 2 3
         nodes = np.concatenate([nodes[:, [0, 1, 3]], nodes[:, [0, 3, 2]]])

@@ -12,16 +12,19 @@ from .expressions import CONSTANTS, COORDINATES, FUNCTIONS, Expression, Expressi
 from .reduction import SECTIONED, Section, section_of
 from .sections import (
     BOUNDARIES,
+    CAD_FORMATS,
     CURVED,
     GEOMETRY_PARAMS,
     LAYERED,
     MATERIAL_PARAMS,
+    MESH_FORMATS,
     PAPER_ANGLE_BOUNDS_2D,
     PAPER_ANGLE_BOUNDS_3D,
     GrowthConfig,
     MaterialConfig,
     ModelConfig,
 )
+from .selectors import msh_physical_names, parse_selector
 from .target_checks import OFF_SECTION, check_compare, check_target
 
 if TYPE_CHECKING:
@@ -42,30 +45,39 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
         if name in GEOMETRY_PARAMS[kind] and not given:
             errors.append(f"geometry.{name}: required for kind '{kind}'")
         elif name not in GEOMETRY_PARAMS[kind] and given:
-            errors.append(f"geometry.{name}: not used by kind '{kind}' "
-                          f"(it takes {', '.join(GEOMETRY_PARAMS[kind])})")
+            takes = (f"it takes {', '.join(GEOMETRY_PARAMS[kind])}" if GEOMETRY_PARAMS[kind]
+                     else "the file gives its shape; remove the key")
+            errors.append(f"geometry.{name}: not used by kind '{kind}' ({takes})")
     if kind == "annulus" and geo.radius and geo.inner_radius and geo.inner_radius >= geo.radius:
         errors.append("geometry.inner_radius: must be smaller than geometry.radius")
     if kind in ("tube", "cylinder_shell") and geo.radius and geo.thickness \
             and geo.thickness >= geo.radius:
         errors.append("geometry.thickness: the wall must be thinner than geometry.radius")
+    _check_file(cfg, errors)
     model = _check_model(cfg, errors)
     cfg = dataclasses.replace(cfg, model=model)
     section = section_of(dim, kind, model.reduction)
 
+    names = boundary_names(cfg, errors)
     clamped = cfg.boundary.clamped
     bc = clamped[0] if len(clamped) == 1 else None  # the one clamp (grading, rigid)
-    allowed = (*BOUNDARIES[kind], "rigid")
+    allowed = (*names, "rigid", "none")
     for name in clamped:
         if name not in allowed:
-            errors.append(f"boundary.clamp: '{name}' is not a boundary of a {kind} "
-                          f"(allowed: {', '.join(allowed)})")
+            errors.append(f"boundary.clamp: '{name}' is not a boundary of {_body(cfg)} "
+                          f"(allowed: {', '.join(allowed)}; name more in "
+                          "geometry.boundaries)")
     if not clamped:
         errors.append("boundary.clamp: an empty list; name a boundary, a list of them, or "
                       "rigid")
     elif len(clamped) > 1 and "rigid" in clamped:
         errors.append("boundary.clamp: rigid pins three vertices of a free body and stands "
                       "alone; give it without other boundaries")
+    elif len(clamped) > 1 and "none" in clamped:
+        errors.append("boundary.clamp: none stands alone; give it without other boundaries")
+    elif clamped == ("none",) and not cfg.boundary.fix:
+        errors.append("boundary.clamp: none leaves the body free; hold it with boundary.fix "
+                      "(stopping every rigid motion), or use rigid")
     elif len(set(clamped)) < len(clamped):
         errors.append(f"boundary.clamp: {list(clamped)} names a boundary twice; name each "
                       "once")
@@ -88,12 +100,17 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     body_force = loads.body_force if loads.body_force is not None else (0.0,) * n_load
     if len(body_force) != n_load:
         errors.append(f"loads.body_force: give {n_load} components")
+    for key, named in (("loads.traction", loads.traction), ("loads.pressure", loads.pressure),
+                       ("boundary.fix", cfg.boundary.fix)):
+        for name in named:
+            if name not in names:
+                errors.append(f"{key}.{name}: not a boundary of {_body(cfg)} (allowed: "
+                              f"{', '.join(names) or 'none yet'}; name more in "
+                              "geometry.boundaries)")
     for name, vec in loads.traction.items():
-        if name not in BOUNDARIES[kind]:
-            errors.append(f"loads.traction.{name}: not a boundary of a {kind} "
-                          f"(allowed: {', '.join(BOUNDARIES[kind])})")
         if vec is not None and len(vec) != n_load:
             errors.append(f"loads.traction.{name}: give {n_load} components")
+    _check_fix_and_pressure(cfg, section, errors)
     if section.reduced:
         out = section.out_of_plane
         for key, vec in [("body_force", body_force), *(
@@ -121,7 +138,7 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     _check_expressions(cfg, growth, errors)
     if cfg.target is not None:
         check_target(cfg, errors)
-    check_compare(cfg, section, errors)
+    check_compare(cfg, section, names, errors)
     if cfg.objective.placement == "fitted" and cfg.boundary.clamped != ("rigid",):
         errors.append("objective.placement: fitted moves a free body (boundary.clamp: rigid) "
                       "onto its best fit; a clamped body stands where its clamp holds it: "
@@ -170,16 +187,17 @@ def _check_model(cfg: Config, errors: list[str]) -> ModelConfig:
             errors.append("model.plane, model.reduction: a 3D model has none; remove them or "
                           "set model.dim: 2")
         return m
-    if kind not in (*SECTIONED, "rectangle"):
-        errors.append(f"model.dim: 2 does not fit geometry.kind '{kind}' (2D: a rectangle, or "
-                      f"the section of a {', '.join(SECTIONED)})")
+    if kind not in (*SECTIONED, "rectangle", "file"):
+        errors.append(f"model.dim: 2 does not fit geometry.kind '{kind}' (2D: a rectangle, a "
+                      f"file's plane part, or the section of a {', '.join(SECTIONED)})")
         return m
-    plane = m.plane or ("x1x2" if kind == "rectangle" else "x1x3")
-    if kind == "rectangle":
+    plane = m.plane or ("x1x2" if kind in ("rectangle", "file") else "x1x3")
+    if kind in ("rectangle", "file"):
+        body = "a rectangle" if kind == "rectangle" else "a file's plane part"
         if plane != "x1x2":
-            errors.append("model.plane: a rectangle lies in x1x2")
+            errors.append(f"model.plane: {body} lies in x1x2")
         if m.reduction == "axisymmetric":
-            errors.append("model.reduction: a rectangle is a plane body (plane_strain or "
+            errors.append(f"model.reduction: {body} is a plane body (plane_strain or "
                           "plane_stress); axisymmetric models take an annulus or "
                           "cylinder_shell")
     else:
@@ -368,6 +386,96 @@ def _check_target_start(cfg: Config, errors: list[str]) -> None:
         if getattr(g, key).initial not in (None, default):
             errors.append(f"growth.{key}.initial: start: target sets the initial growth; "
                           "remove one of the two")
+
+
+def _body(cfg: Config) -> str:
+    return "the file's body" if cfg.geometry.kind == "file" else f"a {cfg.geometry.kind}"
+
+
+def _check_file(cfg: Config, errors: list[str]) -> None:
+    """geometry.path and geometry.scale: a file body's, and only its."""
+    geo = cfg.geometry
+    if geo.kind != "file":
+        for key, unused in (("path", geo.path is not None), ("scale", geo.scale != 1.0)):
+            if unused:
+                errors.append(f"geometry.{key}: used by kind 'file' only; remove the key")
+        return
+    if geo.path is None:
+        errors.append("geometry.path: required for kind 'file' (a STEP, IGES, BREP or .msh "
+                      "file)")
+        return
+    path = Path(geo.path)
+    if path.suffix.lower() not in (*CAD_FORMATS, *MESH_FORMATS):
+        errors.append(f"geometry.path: '{geo.path}' has an unknown format; give a CAD part "
+                      f"({', '.join(CAD_FORMATS)}) or a gmsh mesh (.msh)")
+    elif not path.is_file():
+        errors.append(f"geometry.path: file '{geo.path}' not found")
+    if cfg.mesh.cells == "hex":
+        errors.append("mesh.cells: a file body is meshed with simplices (a CAD part) or read "
+                      "with its own cells (a .msh of hexahedra is read as such); remove the "
+                      "key")
+
+
+def file_groups(cfg: Config) -> tuple[str, ...]:
+    """The physical groups of a .msh body's boundary (its facets' dimension), by name."""
+    geo = cfg.geometry
+    if geo.kind != "file" or geo.path is None or Path(geo.path).suffix.lower() != ".msh" \
+            or not Path(geo.path).is_file():
+        return ()
+    try:
+        named = msh_physical_names(Path(geo.path))
+    except (OSError, ValueError):
+        return ()  # physics/bodies.py reports an unreadable file, naming geometry.path
+    return tuple(n for n, (dim, _) in named.items() if dim == cfg.model.dim - 1)
+
+
+def boundary_names(cfg: Config, errors: list[str] | None = None) -> tuple[str, ...]:
+    """Every boundary name the body has: its kind's, its file's physical groups and
+    geometry.boundaries' (each selector checked into ``errors``)."""
+    builtin = BOUNDARIES.get(cfg.geometry.kind, ())
+    groups = file_groups(cfg)
+    for name, text in cfg.geometry.boundaries.items():
+        key = f"geometry.boundaries.{name}"
+        if errors is None:
+            continue
+        if not name.isidentifier():
+            errors.append(f"{key}: not usable as a name (letters, digits and _, e.g. base)")
+        elif name in builtin or name in groups:
+            errors.append(f"{key}: already a boundary of {_body(cfg)}; choose another name")
+        try:
+            selector = parse_selector(name, text, groups, cfg.expression_params)
+        except ExpressionError as err:
+            errors.append(f"{key}: {err}; give a condition such as 'x1 < 1e-6', a physical "
+                          "group's name or 'face N'")
+            continue
+        if selector.kind == "faces" and (cfg.geometry.kind != "file" or Path(
+                cfg.geometry.path or "").suffix.lower() not in CAD_FORMATS):
+            errors.append(f"{key}: '{text}' names faces of a CAD part, and the body is not "
+                          "one; give a condition on x1, x2, x3 or a physical group's name")
+    return tuple(dict.fromkeys((*builtin, *groups, *cfg.geometry.boundaries)))
+
+
+_COMPONENTS = ("x1", "x2", "x3")
+
+
+def _check_fix_and_pressure(cfg: Config, section: Section, errors: list[str]) -> None:
+    """boundary.fix's components (the mesh's own axes) and loads.pressure's models."""
+    axes = [_COMPONENTS[a] for a in section.axes]
+    for name, components in cfg.boundary.fix.items():
+        wrong = [c for c in components if c not in axes]
+        if not components or wrong or len(set(components)) < len(components):
+            errors.append(f"boundary.fix.{name}: give the held components, each once, among "
+                          f"{', '.join(axes)} (e.g. [{axes[0]}])")
+        if name in cfg.boundary.clamped:
+            errors.append(f"boundary.fix.{name}: the boundary is clamped already (every "
+                          "component held); remove one of the two")
+    if cfg.loads.pressure and section.reduced:
+        errors.append(f"loads.pressure: not available in a 2D section model "
+                      f"({cfg.model.reduction}); use model.dim: 3")
+    for name in cfg.loads.pressure:
+        if name in cfg.boundary.clamped:
+            errors.append(f"loads.pressure.{name}: the boundary is clamped, and a pressure "
+                          "there does no work; load a free boundary")
 
 
 def _check_names(cfg: Config, errors: list[str]) -> None:

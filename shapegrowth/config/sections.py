@@ -19,6 +19,7 @@ GEOMETRY_PARAMS: dict[str, tuple[str, ...]] = {
     "cylinder_shell": ("radius", "height", "thickness"),
     "rectangle": ("side",),
     "cube": ("side",),
+    "file": (),  # geometry.path and geometry.scale
 }
 BOUNDARIES: dict[str, tuple[str, ...]] = {
     "box": ("x1_min", "x1_max", "x2_min", "x2_max", "x3_min", "x3_max"),
@@ -27,7 +28,12 @@ BOUNDARIES: dict[str, tuple[str, ...]] = {
     "cylinder_shell": ("bottom_rim", "top_rim", "inner", "outer"),
     "rectangle": ("x1_min", "x1_max", "x2_min", "x2_max"),
     "cube": ("x1_min", "x1_max", "x2_min", "x2_max", "x3_min", "x3_max"),
+    "file": (),  # the file's physical groups and geometry.boundaries name them
 }
+# the bodies geometry.kind: file reads (physics/bodies.py): CAD meshed here, meshes read as
+# they are
+CAD_FORMATS = (".step", ".stp", ".iges", ".igs", ".brep")
+MESH_FORMATS = (".msh",)
 # objective.compare's face names beside the boundaries' own (docs/CONFIG.md)
 FACE_ALIASES: dict[str, dict[str, str]] = {
     "box": {"top": "x3_max", "bottom": "x3_min"},
@@ -68,6 +74,19 @@ class GeometryConfig:
     inner_radius: float | None = option("annulus: inner radius", None, gt=0)
     height: float | None = option("cylinder_shell: extent along X3, from X3 = 0", None, gt=0)
     side: float | None = option("rectangle, cube: side length, centred at the origin", None, gt=0)
+    path: str | None = option(
+        "file: the body's file, a CAD part (STEP, IGES or BREP: meshed here with the `mesh` "
+        "keys, second order) or a gmsh mesh (.msh, read as it is: its cells, their order and "
+        "its physical groups, which become boundary names)", None)
+    scale: float = option("file: factor on the file's coordinates (0.001 for a part drawn in "
+                          "millimetres and a body in metres)", 1.0, gt=0)
+    boundaries: dict[str, str] = option(
+        "named boundaries of any body, NAME: SELECTOR, for every key that takes a boundary "
+        "name: a condition on the reference coordinates x1, x2, x3 (and r, theta, the "
+        "geometry's numbers and `parameters`), true at a boundary facet's centre (e.g. "
+        "'x1 < 1e-6', 'x3 > 0.99 and x1 > 5'), a physical group's name in a .msh, or 'face "
+        "N' (a CAD part's face N, or several: 'face 3, 7'). A built-in body's boundaries keep "
+        "their names", {})
 
 
 @dataclass(frozen=True)
@@ -148,7 +167,12 @@ class MaterialConfig:
 class BoundaryConfig:
     clamp: str | tuple[str, ...] = option(
         "named boundary clamped in all directions, or a list of them (e.g. [x1_min, x1_max]: "
-        "held at both ends), or 'rigid' (remove rigid motions only)")
+        "held at both ends), 'rigid' (remove rigid motions only), or 'none' (boundary.fix "
+        "alone holds the body)")
+    fix: dict[str, tuple[str, ...]] = option(
+        "displacement components held at zero on a named boundary, beside the clamp, e.g. "
+        "{x2_min: [x2]} (a roller or a symmetry plane, so that half a symmetric part is "
+        "modelled)", {})
 
     @property
     def clamped(self) -> tuple[str, ...]:
@@ -161,6 +185,11 @@ class LoadsConfig:
     body_force: tuple[float, ...] | None = option("body force f per reference volume (2.7)", None)
     traction: dict[str, tuple[float, ...]] = option(
         "reference traction s0 (2.6) per named boundary, e.g. {x1_max: [0, 0, -1e-3]}", {})
+    pressure: dict[str, float] = option(
+        "follower pressure p per named boundary, on the deformed surface along minus its "
+        "outward normal (p > 0 on a cavity's wall inflates it); the potential -p V of the "
+        "volume the surface encloses, so the surface must be closed, or its rim clamped or on "
+        "symmetry planes of boundary.fix (3D and plane bodies)", {})
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .sections import BOUNDARIES, FACE_ALIASES
+from .sections import FACE_ALIASES
 
 if TYPE_CHECKING:
     from .reduction import Section
@@ -20,21 +20,23 @@ SURFACE_FORMATS = (".stl", ".obj", ".ply", ".msh")
 OFF_SECTION = {"box": ("x2_min", "x2_max")}
 
 
-def check_compare(cfg: Config, section: Section, errors: list[str]) -> None:
+def check_compare(cfg: Config, section: Section, boundaries: tuple[str, ...],
+                  errors: list[str]) -> None:
     """objective.compare: volume, boundary, or faces of this body; a face is compared with a
     target map's image of the same face or with a target surface; a section compares the
-    faces it keeps (its edges stand for them)."""
+    faces it keeps (its edges stand for them); ``boundaries``: the body's names."""
     names = cfg.objective.compared
     kind = cfg.geometry.kind
     faces = cfg.objective.faces(kind)
     if faces is None:
         return
-    allowed = (*FACE_ALIASES.get(kind, {}), *BOUNDARIES[kind])
+    allowed = (*FACE_ALIASES.get(kind, {}), *boundaries)
+    body = "the file's body" if kind == "file" else f"a {kind}"
     wrong = [n for n in names if n not in allowed] if faces else []
     if not names or wrong or (len(names) > 1 and not set(names).isdisjoint({"volume",
                                                                              "boundary"})):
         errors.append(f"objective.compare: {list(names) if len(names) != 1 else names[0]} is "
-                      f"not volume, boundary or faces of a {kind} (faces: {', '.join(allowed)})")
+                      f"not volume, boundary or faces of {body} (faces: {', '.join(allowed)})")
     elif len(set(faces)) < len(faces):
         errors.append(f"objective.compare: {list(names)} names a face twice; name each once")
     off = [n for n in faces if n in OFF_SECTION.get(kind, ())] if section.reduced else []

@@ -1,4 +1,5 @@
-"""Dirichlet data: a clamped named boundary, or the removal of rigid motions only.
+"""Dirichlet data: clamped named boundaries, components held on others (``boundary.fix``:
+rollers, symmetry planes), or the removal of rigid motions only.
 
 ``clamp: rigid`` pins three vertices in the 3-2-1 pattern: A, the vertex nearest
 the centre of the body, in every direction; B, on the X1-line through A, in X2
@@ -32,12 +33,32 @@ def clamp_conditions(V: Any, domain: Domain, clamp: str | tuple[str, ...],
     names = (clamp,) if isinstance(clamp, str) else tuple(clamp)
     if names == ("rigid",):
         return _rigid_pins(V, mesh, axisymmetric)
+    if names == ("none",):
+        return []  # boundary.fix holds the body
     fdim = mesh.topology.dim - 1
     facets = domain.facets(names)
     mesh.topology.create_connectivity(fdim, mesh.topology.dim)  # 0.9 does not create it
     dofs = dolfinx.fem.locate_dofs_topological(V, fdim, facets)
     zero = np.zeros(mesh.geometry.dim, dtype=np.float64)
     return [dolfinx.fem.dirichletbc(zero, dofs, V)]
+
+
+def fixed_conditions(V: Any, domain: Domain, fix: dict[str, tuple[str, ...]],
+                     axes: tuple[int, ...]) -> list:
+    """Homogeneous Dirichlet conditions on some components of the displacement, per named
+    boundary (``boundary.fix``: rollers, symmetry planes); ``axes``: the 3D axes of the
+    mesh's components (a section's (X1, X3))."""
+    mesh = domain.mesh
+    fdim = mesh.topology.dim - 1
+    mesh.topology.create_connectivity(fdim, mesh.topology.dim)
+    bcs = []
+    for name, components in fix.items():
+        facets = domain.facets((name,))
+        for component in components:
+            sub = V.sub(axes.index(int(component[1]) - 1))
+            dofs = dolfinx.fem.locate_dofs_topological(sub, fdim, facets)
+            bcs.append(dolfinx.fem.dirichletbc(np.float64(0.0), dofs, sub))
+    return bcs
 
 
 def body_box(mesh) -> tuple[np.ndarray, np.ndarray]:

@@ -50,12 +50,13 @@ from petsc4py import PETSc
 from .. import compat
 from ..config import Config, resolved
 from . import linear
-from .boundary import clamp_conditions
+from .boundary import clamp_conditions, fixed_conditions
 from .geometry import Domain
 from .growth import Growth
 from .kinematics import Kinematics
 from .material import deformation_gradient, material_of
 from .newton import NewtonSolver
+from .pressure import pressure_energy
 from .transfer import interpolate_between_meshes
 
 log = logging.getLogger(__name__)
@@ -104,8 +105,7 @@ class StateProblem:
 
         metadata = {"quadrature_degree": cfg.quadrature_degree}
         self.dx = ufl.Measure("dx", domain=mesh, metadata=metadata)
-        self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=domain.facet_tags,
-                              metadata=metadata)
+        self.metadata = metadata
         self.energy = self._energy()
         self.v, du = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
         self.residual_ufl = ufl.derivative(self.energy, self.u, self.v)
@@ -113,7 +113,8 @@ class StateProblem:
         self.residual_form = dolfinx.fem.form(self.residual_ufl)
         self.jacobian_form = dolfinx.fem.form(self.jacobian_ufl)
         self.bcs = clamp_conditions(self.V, domain, cfg.boundary.clamp,
-                                    cfg.section.axisymmetric)
+                                    cfg.section.axisymmetric) + \
+            fixed_conditions(self.V, domain, cfg.boundary.fix, cfg.section.axes)
 
         self.A = dolfinx.fem.petsc.create_matrix(self.jacobian_form)
         self.b = compat.create_vector(self.residual_form)
@@ -151,8 +152,10 @@ class StateProblem:
             if any(vec):
                 s0 = dolfinx.fem.Constant(self.domain.mesh, np.array(vec, dtype=float)[axes])
                 energy -= self.load_scale * ufl.dot(s0, self.u) * w * \
-                    self.ds(self.domain.boundaries[name])
-        return energy
+                    self.domain.ds(name, self.metadata)
+        pressure = pressure_energy(self.domain, self.cfg, self.u, self.metadata,
+                                   self.load_scale)
+        return energy if pressure is None else energy + pressure
 
     def first_piola(self) -> ufl.core.expr.Expr:
         """P = dpsi/dF at the current state (the mesh's components, dim x dim)."""

@@ -1,0 +1,157 @@
+"""Bodies from files (``geometry.kind: file``): a CAD part meshed here, or a gmsh mesh read as
+it is, written once into the mesh cache in the form the built-in bodies take.
+
+* A CAD part (STEP, IGES, BREP) is imported by gmsh's OpenCASCADE kernel, scaled by
+  ``geometry.scale``, meshed with simplices of size ``mesh.size`` and second order (its
+  curved faces followed by the cells' edges), and refined ``mesh.refine`` times (gmsh's
+  uniform refinement, the new nodes on the part's faces).
+* A ``.msh`` (any version gmsh reads, any order) keeps its cells and nodes; its physical
+  groups of the boundary's dimension become boundary names; ``mesh.refine`` refines it
+  uniformly; ``geometry.scale`` multiplies its coordinates once read.
+
+Either way each face (a CAD face, or a geometric entity of the mesh's boundary) is tagged by
+its own number in the cached mesh, and the names of the file's physical groups are kept, with
+the faces each holds, beside it (``groups`` in the cache's ``.json``).  What cannot be made a
+body is refused with one line naming the key: an unreadable file, no cell of the model's
+dimension, cells of two kinds, a plane part off the plane x3 = 0, a mesh size absurd for the
+part.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..config import Config, ConfigError
+from ..config.sections import CAD_FORMATS
+
+# a CAD part meshed with more than this many elements along its diagonal is taken for a unit
+# mistake (a part in millimetres meshed with a size in metres), as is one smaller than a cell
+MAX_CELLS_ACROSS = 1000
+
+
+def file_key(cfg: Config) -> dict[str, Any]:
+    """What shapes a file body's mesh: the file's content and the keys that mesh it."""
+    geo = cfg.geometry
+    path = Path(str(geo.path))
+    digest = hashlib.sha1(path.read_bytes()).hexdigest()[:16]
+    key: dict[str, Any] = {"file": digest, "format": path.suffix.lower(), "dim": cfg.model.dim}
+    if is_cad(cfg):
+        key.update(size=cfg.mesh.size, scale=geo.scale)
+    return key
+
+
+def is_cad(cfg: Config) -> bool:
+    return Path(str(cfg.geometry.path)).suffix.lower() in CAD_FORMATS
+
+
+def build_file_body(cfg: Config, out: Path) -> dict[str, list[int]]:
+    """Write ``cfg``'s file body as a tagged mesh to ``out`` (rank 0 only); returns the
+    file's named groups, name -> the face tags each holds.  Raises ConfigError."""
+    import gmsh
+
+    path = Path(str(cfg.geometry.path))
+    tdim = cfg.model.dim
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("file")
+        if is_cad(cfg):
+            _mesh_cad(gmsh, cfg, path, tdim)
+            groups: dict[str, list[int]] = {}
+        else:
+            groups = _read_msh(gmsh, path, tdim)
+        for _ in range(cfg.mesh.refine):
+            gmsh.model.mesh.refine()
+        gmsh.model.removePhysicalGroups()
+        for _, tag in gmsh.model.getEntities(tdim - 1):
+            if len(gmsh.model.mesh.getElementTypes(tdim - 1, tag)):  # a .msh may leave
+                gmsh.model.addPhysicalGroup(tdim - 1, [tag], tag)  # some faces unmeshed
+        gmsh.model.addPhysicalGroup(tdim, [t for _, t in gmsh.model.getEntities(tdim)], 1)
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.write(str(out))
+        return groups
+    finally:
+        gmsh.finalize()
+
+
+def _refuse(problem: str, key: str = "geometry.path") -> ConfigError:
+    return ConfigError([f"{key}: {problem}"])
+
+
+def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
+    """Import, scale and mesh a CAD part (second order)."""
+    occ = gmsh.model.occ
+    try:
+        occ.importShapes(str(path))
+        occ.synchronize()
+    except Exception as err:  # gmsh raises a bare Exception with its log's last line
+        raise _refuse(f"cannot read '{path}' as a CAD part ({err})") from None
+    solids = gmsh.model.getEntities(tdim)
+    if not solids:
+        what = "solid" if tdim == 3 else "face"
+        raise _refuse(f"'{path}' holds no {what} (a {tdim}D model meshes a "
+                      f"{what}); export the part as a {what}"
+                      + (", or set model.dim: 2 for a plane face" if tdim == 3 else ""))
+    if tdim == 2:
+        _check_plane(np.array(gmsh.model.getBoundingBox(-1, -1)), path)
+    if cfg.geometry.scale != 1.0:
+        s = cfg.geometry.scale
+        occ.dilate(gmsh.model.getEntities(tdim), 0.0, 0.0, 0.0, s, s, s)
+        occ.synchronize()
+    box = np.array(gmsh.model.getBoundingBox(-1, -1))
+    diagonal = float(np.linalg.norm(box[3:] - box[:3]))
+    size = cfg.mesh.size
+    if diagonal / size > MAX_CELLS_ACROSS or diagonal < size:
+        raise _refuse(
+            f"{size:g} against a part {diagonal:.4g} across (after geometry.scale "
+            f"{cfg.geometry.scale:g}) makes {diagonal / size:.3g} cells along it; give a size "
+            f"between {diagonal / MAX_CELLS_ACROSS:.3g} and {diagonal:.3g}, or the scale of "
+            "the file's unit (0.001 for millimetres)", "mesh.size")
+    gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.ElementOrder", 2)
+    try:
+        gmsh.model.mesh.generate(tdim)
+    except Exception as err:
+        raise _refuse(f"gmsh could not mesh '{path}' at size {size:g} ({err}); repair the "
+                      "part or change mesh.size") from None
+
+
+def _read_msh(gmsh, path: Path, tdim: int) -> dict[str, list[int]]:
+    """Merge a .msh, check its cells, and return its boundary's named groups."""
+    try:
+        gmsh.merge(str(path))
+    except Exception as err:
+        raise _refuse(f"cannot read '{path}' as a gmsh mesh ({err})") from None
+    kinds = [t for t in gmsh.model.mesh.getElementTypes(tdim)]
+    if not kinds:
+        lower = [d for d in (2, 1) if len(gmsh.model.mesh.getElementTypes(d))]
+        holds = f" (its cells are {lower[0]}D)" if lower else " (it has no cells)"
+        raise _refuse(f"'{path}' holds no {tdim}D cells{holds}; give a mesh of the body"
+                      + ("'s volume, or set model.dim: 2 for a plane part" if tdim == 3
+                         else ""))
+    if len(kinds) > 1:
+        names = [gmsh.model.mesh.getElementProperties(t)[0] for t in kinds]
+        raise _refuse(f"'{path}' mixes {' and '.join(names)}; dolfinx takes one cell kind: "
+                      "give a mesh of one")
+    if tdim == 2:
+        _, coords, _ = gmsh.model.mesh.getNodes()
+        xyz = np.asarray(coords).reshape(-1, 3)
+        _check_plane(np.concatenate([xyz.min(axis=0), xyz.max(axis=0)]), path)
+    groups: dict[str, list[int]] = {}
+    for dim, tag in gmsh.model.getPhysicalGroups(tdim - 1):
+        name = gmsh.model.getPhysicalName(dim, tag) or f"group_{tag}"
+        groups[name] = [int(e) for e in gmsh.model.getEntitiesForPhysicalGroup(dim, tag)]
+    return groups
+
+
+def _check_plane(box: np.ndarray, path: Path) -> None:
+    """A plane part lies in x3 = 0 (model.plane x1x2)."""
+    extent = float(np.max(box[3:] - box[:3]))
+    if max(abs(box[2]), abs(box[5])) > 1e-9 * max(extent, 1.0):
+        raise _refuse(f"'{path}' is a plane part off the plane x3 = 0 (x3 from {box[2]:.4g} "
+                      f"to {box[5]:.4g}); a plane model's part lies in x1x2")

@@ -1,0 +1,318 @@
+"""Bodies from files (geometry.kind: file), boundaries by selector, boundary.fix and
+loads.pressure.
+
+* the tiny beam written as a STEP part and as a .msh with physical groups grows the built-in
+  box's compatible-bend arc to the mesh's error, serially and on 2 ranks with the same
+  numbers;
+* selectors: a condition, a physical group and a CAD face pick the same facets; a facet may
+  lie in two names;
+* a follower pressure is the potential of the volume it encloses: its residual is the
+  follower load (Nanson) on a closed surface, and a quarter of a thick ring under internal
+  pressure, held on its symmetry planes by boundary.fix, has Lame's radial displacement
+  (plane strain) as p -> 0; its reduced gradient passes the Taylor test;
+* what cannot be a body or a boundary is one line naming the key.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import ufl
+from conftest import read_json, run_cli
+from mpi4py import MPI
+
+from shapegrowth.config import ConfigError, from_dict
+from shapegrowth.physics.model import ForwardModel
+
+BEAM = {"length": 1.0, "width": 0.1, "thickness": 0.02}
+
+
+def written(path: Path, make) -> Path:
+    """``make(path)`` on rank 0 (gmsh), then every rank sees the file."""
+    if MPI.COMM_WORLD.rank == 0 and not path.exists():
+        make(path)
+    MPI.COMM_WORLD.barrier()
+    return path
+
+
+def _gmsh(path: Path, build) -> None:
+    import gmsh
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(path.stem)
+        build(gmsh)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
+def beam_step(path: Path) -> None:
+    """The tiny beam (1 x 0.1 x 0.02 from X1 = 0, centred in X2 and X3) as a CAD part;
+    OpenCASCADE numbers its faces X1 = 0, X1 = 1, X2 = -w/2, X2 = w/2, X3 = -t/2, X3 = t/2."""
+    def build(gmsh):
+        gmsh.model.occ.addBox(0, -0.05, -0.01, 1.0, 0.1, 0.02)
+        gmsh.model.occ.synchronize()
+    _gmsh(path, build)
+
+
+def beam_msh(path: Path) -> None:
+    """The same beam meshed by gmsh (second order, size 0.05) with physical groups: 'base'
+    (X1 = 0), 'tip_and_top' (X1 = 1 and X3 = t/2), and the volume."""
+    def build(gmsh):
+        gmsh.model.occ.addBox(0, -0.05, -0.01, 1.0, 0.1, 0.02)
+        gmsh.model.occ.synchronize()
+        gmsh.model.addPhysicalGroup(3, [1], 7)
+        gmsh.model.addPhysicalGroup(2, [1], 3)
+        gmsh.model.setPhysicalName(2, 3, "base")
+        gmsh.model.addPhysicalGroup(2, [2, 6], 4)
+        gmsh.model.setPhysicalName(2, 4, "tip_and_top")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.05)
+        gmsh.model.mesh.generate(3)
+        gmsh.model.mesh.setOrder(2)
+    _gmsh(path, build)
+
+
+def quarter_ring_msh(path: Path, h: float = 0.1) -> None:
+    """A quarter of the ring 1 < r < 2 in x1, x2 >= 0 (second order), with the groups
+    inner, outer, x_axis (X2 = 0) and y_axis (X1 = 0)."""
+    def build(gmsh):
+        occ = gmsh.model.occ
+        ring, _ = occ.cut([(2, occ.addDisk(0, 0, 0, 2, 2))], [(2, occ.addDisk(0, 0, 0, 1, 1))])
+        occ.intersect(ring, [(2, occ.addRectangle(0, 0, 0, 3, 3))])
+        occ.synchronize()
+        groups: dict[str, list[int]] = {"inner": [], "outer": [], "x_axis": [], "y_axis": []}
+        for dim, tag in gmsh.model.getEntities(1):
+            x, y, _ = occ.getCenterOfMass(dim, tag)
+            name = "x_axis" if abs(y) < 1e-9 else "y_axis" if abs(x) < 1e-9 else \
+                "inner" if math.hypot(x, y) < 1.5 else "outer"
+            groups[name].append(tag)
+        for i, (name, tags) in enumerate(groups.items()):
+            gmsh.model.addPhysicalGroup(1, tags, i + 1)
+            gmsh.model.setPhysicalName(1, i + 1, name)
+        gmsh.model.addPhysicalGroup(2, [t for _, t in gmsh.model.getEntities(2)], 10)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.model.mesh.generate(2)
+        gmsh.model.mesh.setOrder(2)
+    _gmsh(path, build)
+
+
+def beam_config(geometry: dict, clamp: str, folder: Path, **extra) -> dict:
+    return {"name": "file_beam", "parameters": {"kappa": 1.0}, "geometry": geometry,
+            "mesh": {"size": 0.05, "layers": 1, "cache_dir": str(folder / "meshes")},
+            "model": {"degree": 2}, "boundary": {"clamp": clamp},
+            "growth": {"degree": 2, "eigenvalues": {"initial": ["(1 + kappa*x3)**2", 1, 1]}},
+            **extra}
+
+
+def arc_error(raw: dict) -> float:
+    """Relative L2 error of the displacement against the compatible bend's arc (kappa 1)."""
+    model = ForwardModel.build(from_dict(raw))
+    report = model.state.solve()
+    assert report.converged, report.reason
+    X = ufl.SpatialCoordinate(model.domain.mesh)
+    exact = ufl.as_vector([(1 + X[2]) * ufl.sin(X[0]), X[1], (1 + X[2]) * ufl.cos(X[0]) - 1]) - X
+    error = model.state.u - exact
+    return math.sqrt(model.integrate(ufl.dot(error, error))
+                     / model.integrate(ufl.dot(exact, exact)))
+
+
+@pytest.mark.mpi
+@pytest.mark.simplex  # the files hold tetrahedra; the built-in box is the reference
+def test_a_step_part_and_a_msh_grow_the_built_in_box_s_arc(shared_tmp):
+    """Measured (h 0.05, one element through the thickness, P2): the built-in box 9.17e-4,
+    the STEP part 9.03e-4, the .msh 9.16e-4; the same on 2 ranks.  gmsh's own tetrahedra
+    differ between its releases, so each is held to the box's within 10 %."""
+    step = written(shared_tmp / "beam.step", beam_step)
+    msh = written(shared_tmp / "beam.msh", beam_msh)
+    box = arc_error(beam_config({"kind": "box", **BEAM}, "x1_min", shared_tmp))
+    from_step = arc_error(beam_config(
+        {"kind": "file", "path": str(step), "boundaries": {"base": "face 1"}}, "base",
+        shared_tmp))
+    from_msh = arc_error(beam_config({"kind": "file", "path": str(msh)}, "base", shared_tmp))
+    assert box == pytest.approx(9.17e-4, rel=0.01)
+    assert from_step == pytest.approx(box, rel=0.1)
+    assert from_msh == pytest.approx(box, rel=0.1)
+
+
+def global_count(domain, name: str) -> int:
+    mesh = domain.mesh
+    owned = mesh.topology.index_map(mesh.topology.dim - 1).size_local
+    facets = domain.boundaries[name]
+    return mesh.comm.allreduce(int(np.sum(facets < owned)), MPI.SUM)
+
+
+@pytest.mark.mpi
+@pytest.mark.simplex
+def test_a_condition_a_group_and_a_cad_face_select_the_same_facets(shared_tmp):
+    """The beam's X1 = 0 end as a CAD face, a condition and a .msh group; 'tip_and_top' (a
+    group of two faces) holds the facets of two conditions, one of them in a name besides."""
+    from shapegrowth.physics.geometry import load_domain
+
+    step = written(shared_tmp / "beam.step", beam_step)
+    msh = written(shared_tmp / "beam.msh", beam_msh)
+    conditions = {"start": "x1 < 1e-9", "tip": "x1 > 1 - 1e-9", "top": "x3 > 0.01 - 1e-9",
+                  "pad": "x3 > 0.01 - 1e-9 and x1 > 0.5 - 1e-9"}
+    cad = load_domain(from_dict(beam_config(
+        {"kind": "file", "path": str(step), "boundaries": {"base": "face 1", **conditions}},
+        "base", shared_tmp)))
+    mesh = load_domain(from_dict(beam_config(
+        {"kind": "file", "path": str(msh), "boundaries": conditions}, "base", shared_tmp)))
+    assert global_count(cad, "base") == global_count(cad, "start") > 0
+    assert global_count(mesh, "base") == global_count(mesh, "start") > 0
+    both = global_count(mesh, "tip") + global_count(mesh, "top")
+    assert global_count(mesh, "tip_and_top") == both
+    assert 0 < global_count(mesh, "pad") < global_count(mesh, "top")
+
+
+def ring_config(folder: Path, pressure: float, **extra) -> dict:
+    """The quarter ring in plane strain, a neo-Hookean solid of mu 1 and Poisson's ratio
+    0.3 (kappa 13/6), held on its symmetry planes alone (clamp: none)."""
+    msh = written(folder / "ring.msh", quarter_ring_msh)
+    return {"name": "ring", "geometry": {"kind": "file", "path": str(msh)},
+            "mesh": {"size": 0.1, "cache_dir": str(folder / "meshes")},
+            "model": {"dim": 2, "degree": 2, "reduction": "plane_strain"},
+            "material": {"kind": "neo_hookean", "mu": 1.0, "kappa": 13 / 6},
+            "boundary": {"clamp": "none", "fix": {"x_axis": ["x2"], "y_axis": ["x1"]}},
+            "loads": {"pressure": {"inner": pressure}},
+            "growth": {"eigenvalues": {"initial": [1.0, 1.0]}}, **extra}
+
+
+def inner_displacement(raw: dict) -> float:
+    """u_1 at (1, 0), the inner face on the X1 axis."""
+    model = ForwardModel.build(from_dict(raw))
+    report = model.state.solve()
+    assert report.converged, report.reason
+    from shapegrowth import compat
+
+    return float(compat.evaluate_at_points(model.state.u, np.array([[1.0, 0.0, 0.0]]))[0, 0])
+
+
+@pytest.mark.mpi
+def test_a_thick_ring_under_internal_pressure_has_lame_s_displacement(shared_tmp):
+    """Lame, plane strain: u_r(a) = p a^2 (1 + nu) ((1 - 2 nu) a + b^2 / a) / (E (b^2 - a^2))
+    for a = 1, b = 2, E = 2.6, nu = 0.3: 0.7333 p.  The large-strain solution departs from it
+    by O(p), so u/p at p and 2p is extrapolated to p -> 0 (Richardson).  Measured: 0.733395
+    and 0.733474 at p = 1e-4, 2e-4; extrapolated 0.733316 against 0.733333 (2.3e-5, the
+    mesh's error); the same on 2 ranks."""
+    E, nu, a, b = 2.6, 0.3, 1.0, 2.0
+    lame = a * a * (1 + nu) * ((1 - 2 * nu) * a + b * b / a) / (E * (b * b - a * a))
+    p = 1e-4
+    once = inner_displacement(ring_config(shared_tmp, p)) / p
+    twice = inner_displacement(ring_config(shared_tmp, 2 * p)) / (2 * p)
+    assert twice > once  # the wall thins: stiffening by the follower load is second order
+    assert 2 * once - twice == pytest.approx(lame, rel=1e-4)
+    assert once == pytest.approx(lame, rel=3e-4)
+
+
+@pytest.mark.mpi
+def test_the_pressure_s_potential_is_the_follower_load(shared_tmp):
+    """At a random displacement that keeps the symmetry planes, the residual of -p V(u) is
+    the follower load int p cof(F) N . v dA on every free degree of freedom (the rim's term
+    vanishes in the planes), to round-off."""
+    import dolfinx.fem
+
+    from shapegrowth import compat
+    from shapegrowth.physics.pressure import pressure_energy
+
+    model = ForwardModel.build(from_dict(ring_config(shared_tmp, 0.3)))
+    state = model.state
+    rng = np.random.default_rng(7)
+    u = state.u
+    u.x.array[:] = 0.05 * rng.standard_normal(len(u.x.array))
+    compat.set_bc(compat.petsc_vec(u), state.bcs, alpha=0.0)
+    u.x.scatter_forward()
+    v = ufl.TestFunction(state.V)
+    potential = ufl.derivative(pressure_energy(state.domain, state.cfg, u, state.metadata,
+                                               1.0), u, v)
+    F = ufl.Identity(2) + ufl.grad(u)
+    follower = 0.3 * ufl.dot(ufl.cofac(F) * ufl.FacetNormal(state.domain.mesh), v) \
+        * state.domain.ds("inner", state.metadata)
+    vectors = []
+    for form in (potential, follower):
+        vec = compat.create_vector(dolfinx.fem.form(form))
+        dolfinx.fem.petsc.assemble_vector(vec, dolfinx.fem.form(form))
+        vec.ghostUpdate(addv=4, mode=1)  # ADD, REVERSE
+        compat.set_bc(vec, state.bcs, alpha=0.0)
+        vectors.append(vec.array.copy())
+    scale = MPI.COMM_WORLD.allreduce(float(np.abs(vectors[1]).max()), MPI.MAX)
+    gap = MPI.COMM_WORLD.allreduce(float(np.abs(vectors[0] - vectors[1]).max()), MPI.MAX)
+    assert scale > 1e-3 and gap < 1e-12 * scale
+
+
+@pytest.mark.mpi
+def test_a_pressurised_body_has_its_gradient(shared_tmp):
+    """The quarter ring at p = 0.2 with a target map: Taylor rate > 1.9 (measured 2.01)."""
+    raw = ring_config(shared_tmp, 0.2, target={"map": ["1.1*x1", "1.1*x2"]})
+    config = shared_tmp / "ring.yaml"
+    if MPI.COMM_WORLD.rank == 0:
+        import yaml
+
+        config.write_text(yaml.safe_dump(raw))
+    MPI.COMM_WORLD.barrier()
+    out = shared_tmp / "gradcheck"
+    assert run_cli("gradcheck", config, "--out", out, "-q") == 0
+    check = read_json(out / "gradcheck.json")
+    assert min(check["rates"]) > 1.9, check
+
+
+def refusal(raw: dict) -> list[str]:
+    """The problems ConfigError lists for ``raw``, from the config or from reading the body."""
+    with pytest.raises(ConfigError) as err:
+        ForwardModel.build(from_dict(raw))
+    return err.value.problems
+
+
+def test_what_cannot_be_a_body_or_a_boundary_is_one_line_naming_the_key(tmp_path):
+    step = written(tmp_path / "beam.step", beam_step)
+    msh = written(tmp_path / "beam.msh", beam_msh)
+    garbage = tmp_path / "junk.step"
+    garbage.write_text("ISO-10303-21;\nnot a part\n")
+    surface = tmp_path / "skin.msh"
+
+    def skin(path):
+        def build(gmsh):
+            gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+            gmsh.model.occ.synchronize()
+            gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+            gmsh.model.mesh.generate(2)
+        _gmsh(path, build)
+    written(surface, skin)
+
+    def beam(path: Path, clamp: str = "base", **geometry) -> dict:
+        return beam_config({"kind": "file", "path": str(path), **geometry}, clamp, tmp_path)
+
+    cases = [
+        (beam(garbage, "x", boundaries={"x": "x1 < 1e-9"}), "geometry.path: cannot read"),
+        (beam(surface, "x", boundaries={"x": "x1 < 1e-9"}), "geometry.path: "),
+        (beam(msh, boundaries={"far": "x1 > 5"}), "geometry.boundaries.far: 'x1 > 5' selects "
+                                                  "no facet"),
+        (beam(step, boundaries={"base": "face 9"}), "geometry.boundaries.base: the part has no "
+                                                    "face 9"),
+        (beam(step, boundaries={"base": "face 1"}, scale=1000.0), "mesh.size: "),
+        (beam(msh, scale=1e9), "geometry.scale: "),
+        (beam(msh, boundaries={"top": "x3 > 0.01 - 1e-9"})
+         | {"loads": {"pressure": {"top": 0.1}}}, "loads.pressure.top: the surface's rim is "
+                                                  "free"),
+    ]
+    for raw, head in cases:
+        problems = refusal(raw)
+        assert len(problems) == 1 and problems[0].startswith(head), (head, problems)
+    config_only = [
+        (beam(msh, "clamped"), "boundary.clamp: 'clamped' is not a boundary"),
+        (beam(msh, boundaries={"b": "x1 <"}), "geometry.boundaries.b: cannot parse"),
+        (beam(msh, boundaries={"b": "face 1"}), "geometry.boundaries.b: 'face 1' names faces"),
+        (beam(tmp_path / "none.step"), "geometry.path: file"),
+        (beam_config({"kind": "box", **BEAM, "path": str(step)}, "x1_min", tmp_path),
+         "geometry.path: used by kind 'file' only"),
+        (beam(msh) | {"boundary": {"clamp": "base", "fix": {"base": ["x4"]}}},
+         "boundary.fix.base: give the held components"),
+    ]
+    for raw, head in config_only:
+        with pytest.raises(ConfigError) as err:
+            from_dict(raw)
+        assert any(line.startswith(head) for line in err.value.problems), (head, err.value)
