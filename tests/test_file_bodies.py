@@ -27,6 +27,10 @@ from mpi4py import MPI
 from shapegrowth.config import ConfigError, from_dict
 from shapegrowth.physics.model import ForwardModel
 
+# a file body's cells are the file's, or simplices meshed here: the hexahedral leg (which
+# sets mesh.cells: hex on every config) has nothing to run here
+pytestmark = pytest.mark.simplex
+
 BEAM = {"length": 1.0, "width": 0.1, "thickness": 0.02}
 
 
@@ -56,6 +60,15 @@ def beam_step(path: Path) -> None:
     OpenCASCADE numbers its faces X1 = 0, X1 = 1, X2 = -w/2, X2 = w/2, X3 = -t/2, X3 = t/2."""
     def build(gmsh):
         gmsh.model.occ.addBox(0, -0.05, -0.01, 1.0, 0.1, 0.02)
+        gmsh.model.occ.synchronize()
+    _gmsh(path, build)
+
+
+def beam_skin(path: Path) -> None:
+    """The beam's six faces alone as BREP (no solid: as IGES exports often are)."""
+    def build(gmsh):
+        gmsh.model.occ.addBox(0, -0.05, -0.01, 1.0, 0.1, 0.02)
+        gmsh.model.occ.remove([(3, 1)])
         gmsh.model.occ.synchronize()
     _gmsh(path, build)
 
@@ -122,10 +135,10 @@ def arc_error(raw: dict) -> float:
 
 
 @pytest.mark.mpi
-@pytest.mark.simplex  # the files hold tetrahedra; the built-in box is the reference
 def test_a_step_part_and_a_msh_grow_the_built_in_box_s_arc(shared_tmp):
     """Measured (h 0.05, one element through the thickness, P2): the built-in box 9.17e-4,
-    the STEP part 9.03e-4, the .msh 9.16e-4; the same on 2 ranks.  gmsh's own tetrahedra
+    the STEP part 9.03e-4, the .msh 9.16e-4, the part's skin alone as BREP (sewn) 9.03e-4;
+    the same on 2 ranks.  gmsh's own tetrahedra
     differ between its releases, so each is held to the box's within 10 %."""
     step = written(shared_tmp / "beam.step", beam_step)
     msh = written(shared_tmp / "beam.msh", beam_msh)
@@ -134,7 +147,12 @@ def test_a_step_part_and_a_msh_grow_the_built_in_box_s_arc(shared_tmp):
         {"kind": "file", "path": str(step), "boundaries": {"base": "face 1"}}, "base",
         shared_tmp))
     from_msh = arc_error(beam_config({"kind": "file", "path": str(msh)}, "base", shared_tmp))
+    skin = written(shared_tmp / "skin.brep", beam_skin)
+    from_skin = arc_error(beam_config(
+        {"kind": "file", "path": str(skin), "boundaries": {"base": "x1 < 1e-9"}}, "base",
+        shared_tmp))
     assert box == pytest.approx(9.17e-4, rel=0.01)
+    assert from_skin == pytest.approx(box, rel=0.1)  # its faces sewn into the solid
     assert from_step == pytest.approx(box, rel=0.1)
     assert from_msh == pytest.approx(box, rel=0.1)
 
@@ -147,7 +165,6 @@ def global_count(domain, name: str) -> int:
 
 
 @pytest.mark.mpi
-@pytest.mark.simplex
 def test_a_condition_a_group_and_a_cad_face_select_the_same_facets(shared_tmp):
     """The beam's X1 = 0 end as a CAD face, a condition and a .msh group; 'tip_and_top' (a
     group of two faces) holds the facets of two conditions, one of them in a name besides."""
@@ -162,6 +179,14 @@ def test_a_condition_a_group_and_a_cad_face_select_the_same_facets(shared_tmp):
         "base", shared_tmp)))
     mesh = load_domain(from_dict(beam_config(
         {"kind": "file", "path": str(msh), "boundaries": conditions}, "base", shared_tmp)))
+    from shapegrowth.physics.geometry import patches
+
+    listed = {patch.name: patch for patch in patches(cad)}  # what `shapegrowth mesh` lists
+    assert listed["face 1"].area == pytest.approx(0.1 * 0.02, rel=1e-12)
+    assert listed["face 6"].area == pytest.approx(1.0 * 0.1, rel=1e-12)
+    assert listed["face 6"].centre == pytest.approx((0.5, 0.0, 0.01), abs=1e-12)
+    # the facets whose centre lies past X1 = 0.5: its edge is the mesh's, not the line's
+    assert listed["pad"].area == pytest.approx(0.5 * 0.1, rel=0.1)
     assert global_count(cad, "base") == global_count(cad, "start") > 0
     assert global_count(mesh, "base") == global_count(mesh, "start") > 0
     both = global_count(mesh, "tip") + global_count(mesh, "top")
@@ -169,11 +194,30 @@ def test_a_condition_a_group_and_a_cad_face_select_the_same_facets(shared_tmp):
     assert 0 < global_count(mesh, "pad") < global_count(mesh, "top")
 
 
-def ring_config(folder: Path, pressure: float, **extra) -> dict:
+def quarter_ring_face(path: Path) -> None:
+    """The quarter ring as a CAD face (BREP): its edges are faces 1 to 4 to a plane part."""
+    def build(gmsh):
+        occ = gmsh.model.occ
+        ring, _ = occ.cut([(2, occ.addDisk(0, 0, 0, 2, 2))], [(2, occ.addDisk(0, 0, 0, 1, 1))])
+        occ.intersect(ring, [(2, occ.addRectangle(0, 0, 0, 3, 3))])
+        occ.synchronize()
+    _gmsh(path, build)
+
+
+RING_SELECTORS = {"inner": "abs(r - 1) < 0.01", "x_axis": "abs(x2) < 1e-9",
+                  "y_axis": "abs(x1) < 1e-9"}
+
+
+def ring_config(folder: Path, pressure: float, source: str = "msh", **extra) -> dict:
     """The quarter ring in plane strain, a neo-Hookean solid of mu 1 and Poisson's ratio
-    0.3 (kappa 13/6), held on its symmetry planes alone (clamp: none)."""
-    msh = written(folder / "ring.msh", quarter_ring_msh)
-    return {"name": "ring", "geometry": {"kind": "file", "path": str(msh)},
+    0.3 (kappa 13/6), held on its symmetry planes alone (clamp: none): from a .msh with its
+    groups, or from a CAD face with the same names by selectors."""
+    if source == "msh":
+        geometry = {"kind": "file", "path": str(written(folder / "ring.msh", quarter_ring_msh))}
+    else:
+        geometry = {"kind": "file", "path": str(written(folder / "ring.brep", quarter_ring_face)),
+                    "boundaries": RING_SELECTORS}
+    return {"name": "ring", "geometry": geometry,
             "mesh": {"size": 0.1, "cache_dir": str(folder / "meshes")},
             "model": {"dim": 2, "degree": 2, "reduction": "plane_strain"},
             "material": {"kind": "neo_hookean", "mu": 1.0, "kappa": 13 / 6},
@@ -193,17 +237,18 @@ def inner_displacement(raw: dict) -> float:
 
 
 @pytest.mark.mpi
-def test_a_thick_ring_under_internal_pressure_has_lame_s_displacement(shared_tmp):
+@pytest.mark.parametrize("source", ["msh", "brep"])
+def test_a_thick_ring_under_internal_pressure_has_lame_s_displacement(source, shared_tmp):
     """Lame, plane strain: u_r(a) = p a^2 (1 + nu) ((1 - 2 nu) a + b^2 / a) / (E (b^2 - a^2))
     for a = 1, b = 2, E = 2.6, nu = 0.3: 0.7333 p.  The large-strain solution departs from it
     by O(p), so u/p at p and 2p is extrapolated to p -> 0 (Richardson).  Measured: 0.733395
     and 0.733474 at p = 1e-4, 2e-4; extrapolated 0.733316 against 0.733333 (2.3e-5, the
-    mesh's error); the same on 2 ranks."""
+    mesh's error) on the .msh, and on the CAD face meshed here; the same on 2 ranks."""
     E, nu, a, b = 2.6, 0.3, 1.0, 2.0
     lame = a * a * (1 + nu) * ((1 - 2 * nu) * a + b * b / a) / (E * (b * b - a * a))
     p = 1e-4
-    once = inner_displacement(ring_config(shared_tmp, p)) / p
-    twice = inner_displacement(ring_config(shared_tmp, 2 * p)) / (2 * p)
+    once = inner_displacement(ring_config(shared_tmp, p, source)) / p
+    twice = inner_displacement(ring_config(shared_tmp, 2 * p, source)) / (2 * p)
     assert twice > once  # the wall thins: stiffening by the follower load is second order
     assert 2 * once - twice == pytest.approx(lame, rel=1e-4)
     assert once == pytest.approx(lame, rel=3e-4)
@@ -316,3 +361,29 @@ def test_what_cannot_be_a_body_or_a_boundary_is_one_line_naming_the_key(tmp_path
         with pytest.raises(ConfigError) as err:
             from_dict(raw)
         assert any(line.startswith(head) for line in err.value.problems), (head, err.value)
+
+
+FINGER = Path(__file__).resolve().parent.parent / "configs" / "examples" / "finger.yaml"
+
+
+@pytest.mark.mpi
+@pytest.mark.slow  # 28-32 s serially: three runs, one verified from rest on the refined part
+def test_the_worked_example_runs_verifies_and_resumes_on_its_cad_part(shared_tmp):
+    """configs/examples/finger.yaml coarsened (mesh.size 0.5): a STEP part, its clamp and its
+    chamber's pressure by selectors, a target map.  Four iterations, and two resumed to
+    four, give the same history; the run ends verified from rest on the refined part, and
+    stable."""
+    sets = ["--set", "mesh.size=0.5", "--set", f"mesh.cache_dir={shared_tmp / 'meshes'}",
+            "--set", "verify.every=0", "--set", "optimizer.max_iterations=4"]
+    straight, resumed = shared_tmp / "straight", shared_tmp / "resumed"
+    assert run_cli("run", FINGER, "--out", straight, "-q", *sets) == 0
+    assert run_cli("run", FINGER, "--out", resumed, "-q", *sets[:-2],
+                   "--set", "optimizer.max_iterations=2", "--set", "verify.enabled=false") == 0
+    assert run_cli("run", FINGER, "--out", resumed, "-q", "--resume", *sets) == 0
+    a, b = read_json(straight / "summary.json"), read_json(resumed / "summary.json")
+    assert b["resumed"] and b["iterations"] == a["iterations"] == 4
+    assert b["objective_final"] == pytest.approx(a["objective_final"], rel=1e-10)
+    assert a["objective_final"] < a["objective_initial"]
+    assert a["stability"]["stable"]
+    verified = a["verified"]
+    assert verified["refine"] == 1 and 0 < verified["relative"] < 0.2, verified

@@ -149,11 +149,13 @@ def _validate(cfg, args) -> int:
 
 
 def _mesh(cfg, args) -> int:
-    from ..physics.geometry import load_domain, mesh_quality
+    from ..physics.geometry import load_domain, mesh_quality, patches
 
     domain = load_domain(cfg)
     log.info("mesh: %s", domain.path)
     log.info("mesh: %s", mesh_quality(domain, cfg).describe())
+    for patch in patches(domain):  # what a boundary name or a selector can name
+        log.info("  %s", patch.describe())
     return EXIT_OK
 
 

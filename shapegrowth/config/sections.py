@@ -65,7 +65,8 @@ def resolved(value: T | None) -> T:
 
 @dataclass(frozen=True)
 class GeometryConfig:
-    kind: str = option("shape of the reference body", choices=tuple(GEOMETRY_PARAMS))
+    kind: str = option("shape of the reference body: a built-in one, or 'file' (geometry.path)",
+                       choices=tuple(GEOMETRY_PARAMS))
     length: float | None = option("box, tube: extent along X1, from X1 = 0", None, gt=0)
     width: float | None = option("box: extent along X2, centred on X2 = 0", None, gt=0)
     thickness: float | None = option(
@@ -91,7 +92,8 @@ class GeometryConfig:
 
 @dataclass(frozen=True)
 class MeshConfig:
-    size: float = option("target element size", gt=0)
+    size: float = option("target element size (a .msh body keeps its own cells; give its "
+                         "typical size)", gt=0)
     layers: int = option("elements through the wall or thickness (layered bodies)", 2, ge=1)
     clamp_size: float | None = option(
         "element size at the clamp (box or tube at x1_min, annulus at inner_rim, "

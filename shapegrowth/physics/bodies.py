@@ -1,7 +1,8 @@
 """Bodies from files (``geometry.kind: file``): a CAD part meshed here, or a gmsh mesh read as
 it is, written once into the mesh cache in the form the built-in bodies take.
 
-* A CAD part (STEP, IGES, BREP) is imported by gmsh's OpenCASCADE kernel, scaled by
+* A CAD part (STEP, IGES, BREP) is imported by gmsh's OpenCASCADE kernel (a skin of faces
+  without its solid, as IGES files often are, sewn into one), scaled by
   ``geometry.scale``, meshed with simplices of size ``mesh.size`` and second order (its
   curved faces followed by the cells' edges), and refined ``mesh.refine`` times (gmsh's
   uniform refinement, the new nodes on the part's faces).
@@ -20,6 +21,7 @@ part.
 from __future__ import annotations
 
 import hashlib
+import logging
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +29,8 @@ import numpy as np
 
 from ..config import Config, ConfigError
 from ..config.sections import CAD_FORMATS
+
+log = logging.getLogger(__name__)
 
 # a CAD part meshed with more than this many elements along its diagonal is taken for a unit
 # mistake (a part in millimetres meshed with a size in metres), as is one smaller than a cell
@@ -91,19 +95,29 @@ def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
     except Exception as err:  # gmsh raises a bare Exception with its log's last line
         raise _refuse(f"cannot read '{path}' as a CAD part ({err})") from None
     solids = gmsh.model.getEntities(tdim)
+    faces = gmsh.model.getEntities(tdim - 1)
+    if not solids and tdim == 3 and faces:  # IGES and some exports carry the skin alone
+        occ.healShapes(faces, 1e-8 * _diagonal(gmsh), True, True, True, True, True)
+        occ.synchronize()
+        solids = gmsh.model.getEntities(tdim)
+        if solids:
+            log.info("geometry.path: the %d faces of '%s' sewn into %d solid(s)", len(faces),
+                     path, len(solids))
     if not solids:
         what = "solid" if tdim == 3 else "face"
         raise _refuse(f"'{path}' holds no {what} (a {tdim}D model meshes a "
                       f"{what}); export the part as a {what}"
                       + (", or set model.dim: 2 for a plane face" if tdim == 3 else ""))
-    if tdim == 2:
-        _check_plane(np.array(gmsh.model.getBoundingBox(-1, -1)), path)
+    loose = [(tdim - 1, t) for _, t in gmsh.model.getEntities(tdim - 1)  # faces bounding
+             if not len(gmsh.model.getAdjacencies(tdim - 1, t)[0])]  # no solid (a skin sewn)
+    if loose:
+        occ.remove(loose, recursive=True)
+        occ.synchronize()
     if cfg.geometry.scale != 1.0:
         s = cfg.geometry.scale
         occ.dilate(gmsh.model.getEntities(tdim), 0.0, 0.0, 0.0, s, s, s)
         occ.synchronize()
-    box = np.array(gmsh.model.getBoundingBox(-1, -1))
-    diagonal = float(np.linalg.norm(box[3:] - box[:3]))
+    diagonal = _diagonal(gmsh)
     size = cfg.mesh.size
     if diagonal / size > MAX_CELLS_ACROSS or diagonal < size:
         raise _refuse(
@@ -119,6 +133,13 @@ def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
     except Exception as err:
         raise _refuse(f"gmsh could not mesh '{path}' at size {size:g} ({err}); repair the "
                       "part or change mesh.size") from None
+    if tdim == 2:  # the nodes, not OpenCASCADE's box (widened by the part's tolerance)
+        _check_plane(_node_box(gmsh), path)
+
+
+def _diagonal(gmsh) -> float:
+    box = np.array(gmsh.model.getBoundingBox(-1, -1))
+    return float(np.linalg.norm(box[3:] - box[:3]))
 
 
 def _read_msh(gmsh, path: Path, tdim: int) -> dict[str, list[int]]:
@@ -139,14 +160,19 @@ def _read_msh(gmsh, path: Path, tdim: int) -> dict[str, list[int]]:
         raise _refuse(f"'{path}' mixes {' and '.join(names)}; dolfinx takes one cell kind: "
                       "give a mesh of one")
     if tdim == 2:
-        _, coords, _ = gmsh.model.mesh.getNodes()
-        xyz = np.asarray(coords).reshape(-1, 3)
-        _check_plane(np.concatenate([xyz.min(axis=0), xyz.max(axis=0)]), path)
+        _check_plane(_node_box(gmsh), path)
     groups: dict[str, list[int]] = {}
     for dim, tag in gmsh.model.getPhysicalGroups(tdim - 1):
         name = gmsh.model.getPhysicalName(dim, tag) or f"group_{tag}"
         groups[name] = [int(e) for e in gmsh.model.getEntitiesForPhysicalGroup(dim, tag)]
     return groups
+
+
+def _node_box(gmsh) -> np.ndarray:
+    """(lo, hi) of the mesh's nodes, six numbers."""
+    _, coords, _ = gmsh.model.mesh.getNodes()
+    xyz = np.asarray(coords).reshape(-1, 3)
+    return np.concatenate([xyz.min(axis=0), xyz.max(axis=0)])
 
 
 def _check_plane(box: np.ndarray, path: Path) -> None:

@@ -41,6 +41,7 @@ class Domain:
     path: Path
     facet_tags: Any = None  # dolfinx.mesh.MeshTags (0.5: made by a metaclass, not a type)
     ids: dict[str, tuple[int, ...]] = field(default_factory=dict)
+    faces: dict[int, np.ndarray] = field(default_factory=dict)  # a file's faces, by number
 
     def __post_init__(self) -> None:
         if self.facet_tags is None:
@@ -166,8 +167,57 @@ def load_domain(cfg: Config, comm: MPI.Comm = MPI.COMM_WORLD) -> Domain:
     check_cells(mesh, key)
     groups = {name: tuple(tags) for name, tags in json.loads(
         path.with_suffix(".json").read_text()).get("groups", {}).items()}
+    faces: dict[int, np.ndarray] = {}
+    if cfg.geometry.kind == "file":
+        numbers = np.unique(np.concatenate(comm.allgather(np.unique(facet_tags.values))))
+        faces = {int(n): np.asarray(facet_tags.find(n), dtype=np.int32) for n in numbers}
     return Domain(mesh, named_boundaries(cfg, mesh, facet_tags, groups), cfg.geometry.kind,
-                  path)
+                  path, faces=faces)
+
+
+@dataclass(frozen=True)
+class Patch:
+    """A part of the boundary as ``shapegrowth mesh`` lists it: its facets, area (of the
+    facets' chords) and centre."""
+
+    name: str
+    facets: int
+    area: float
+    centre: tuple[float, ...]
+
+    def describe(self) -> str:
+        centre = ", ".join(f"{c:.4g}" for c in self.centre)
+        return f"{self.name}: {self.facets} facets, area {self.area:.4g}, centre ({centre})"
+
+
+def patches(domain: Domain) -> list[Patch]:
+    """The named boundaries, then a file's faces (``face N``), each measured (collective)."""
+    from ..compat import entities_to_geometry
+
+    mesh = domain.mesh
+    fdim = mesh.topology.dim - 1
+    owned = mesh.topology.index_map(fdim).size_local
+    corners = {1: 2, 2: 4 if mesh.topology.cell_type.name == "hexahedron" else 3}[fdim]
+    named = [*domain.boundaries.items(), *((f"face {n}", f) for n, f in domain.faces.items())]
+    out = []
+    for name, facets in named:
+        mine = facets[facets < owned]
+        x = mesh.geometry.x[entities_to_geometry(mesh, fdim, mine)[:, :corners]] if len(
+            mine) else np.zeros((0, corners, 3))
+        if corners == 2:
+            areas = np.linalg.norm(x[:, 1] - x[:, 0], axis=1)
+        else:  # triangles, or quadrilaterals (corners 0 1 / 2 3) as two triangles
+            areas = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
+            if corners == 4:
+                areas += 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 3], x[:, 2] - x[:, 3]),
+                                              axis=1)
+        sums = np.concatenate([[len(mine), areas.sum()], areas @ x.mean(axis=1)
+                               if len(mine) else np.zeros(3)])
+        mesh.comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
+        centre = sums[2:2 + mesh.geometry.dim] / sums[1] if sums[1] > 0 else \
+            np.zeros(mesh.geometry.dim)
+        out.append(Patch(name, int(sums[0]), float(sums[1]), tuple(float(c) for c in centre)))
+    return out
 
 
 def named_boundaries(cfg: Config, mesh, facet_tags, groups: dict[str, tuple[int, ...]]
