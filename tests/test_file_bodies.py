@@ -1,9 +1,9 @@
 """Bodies from files (geometry.kind: file), boundaries by selector, boundary.fix and
 loads.pressure.
 
-* the tiny beam written as a STEP part and as a .msh with physical groups grows the built-in
-  box's compatible-bend arc to the mesh's error, serially and on 2 ranks with the same
-  numbers;
+* the tiny beam written as a STEP part, a BREP skin, a .msh with physical groups and a
+  dolfinx XDMF grows the built-in box's compatible-bend arc to the mesh's error, serially
+  and on 2 ranks with the same numbers;
 * selectors: a condition, a physical group and a CAD face pick the same facets; a facet may
   lie in two names;
 * a follower pressure is the potential of the volume it encloses: its residual is the
@@ -122,6 +122,29 @@ def beam_config(geometry: dict, clamp: str, folder: Path, **extra) -> dict:
             **extra}
 
 
+def box_as_xdmf(folder: Path) -> Path:
+    """The built-in box's own mesh (h 0.05, one layer) written by dolfinx as XDMF, its
+    X1 = 0 end tagged 3 (collective)."""
+    import dolfinx.io
+    import dolfinx.mesh
+
+    from shapegrowth import compat
+    from shapegrowth.physics.geometry import load_domain
+
+    domain = load_domain(from_dict(beam_config({"kind": "box", **BEAM}, "x1_min", folder)))
+    facets = domain.boundaries["x1_min"]
+    tags = dolfinx.mesh.meshtags(domain.mesh, 2, facets, np.full(len(facets), 3, np.int32))
+    tags.name = "facet_tags"
+    path = folder / "box.xdmf"
+    with dolfinx.io.XDMFFile(domain.mesh.comm, str(path), "w") as xdmf:
+        xdmf.write_mesh(domain.mesh)
+        if compat.AT_LEAST_0_9:  # 0.9 asks for the geometry the tags' entities lie in
+            xdmf.write_meshtags(tags, domain.mesh.geometry)
+        else:
+            xdmf.write_meshtags(tags)
+    return path
+
+
 def arc_error(raw: dict) -> float:
     """Relative L2 error of the displacement against the compatible bend's arc (kappa 1)."""
     model = ForwardModel.build(from_dict(raw))
@@ -137,8 +160,9 @@ def arc_error(raw: dict) -> float:
 @pytest.mark.mpi
 def test_a_step_part_and_a_msh_grow_the_built_in_box_s_arc(shared_tmp):
     """Measured (h 0.05, one element through the thickness, P2): the built-in box 9.17e-4,
-    the STEP part 9.03e-4, the .msh 9.16e-4, the part's skin alone as BREP (sewn) 9.03e-4;
-    the same on 2 ranks.  gmsh's own tetrahedra
+    the STEP part 9.03e-4, the .msh 9.16e-4, the part's skin alone as BREP (sewn) 9.03e-4,
+    the box's own mesh written by dolfinx as XDMF and read back the box's to round-off; the
+    same on 2 ranks.  gmsh's own tetrahedra
     differ between its releases, so each is held to the box's within 10 %."""
     step = written(shared_tmp / "beam.step", beam_step)
     msh = written(shared_tmp / "beam.msh", beam_msh)
@@ -151,7 +175,10 @@ def test_a_step_part_and_a_msh_grow_the_built_in_box_s_arc(shared_tmp):
     from_skin = arc_error(beam_config(
         {"kind": "file", "path": str(skin), "boundaries": {"base": "x1 < 1e-9"}}, "base",
         shared_tmp))
+    from_xdmf = arc_error(beam_config({"kind": "file", "path": str(box_as_xdmf(shared_tmp))},
+                                      "tag_3", shared_tmp))
     assert box == pytest.approx(9.17e-4, rel=0.01)
+    assert from_xdmf == pytest.approx(box, rel=1e-8)  # the box's own mesh, read back
     assert from_skin == pytest.approx(box, rel=0.1)  # its faces sewn into the solid
     assert from_step == pytest.approx(box, rel=0.1)
     assert from_msh == pytest.approx(box, rel=0.1)
@@ -331,8 +358,11 @@ def test_what_cannot_be_a_body_or_a_boundary_is_one_line_naming_the_key(tmp_path
     def beam(path: Path, clamp: str = "base", **geometry) -> dict:
         return beam_config({"kind": "file", "path": str(path), **geometry}, clamp, tmp_path)
 
+    not_xml = tmp_path / "junk.xdmf"
+    not_xml.write_text("<Xdmf><Domain><Grid>")
     cases = [
         (beam(garbage, "x", boundaries={"x": "x1 < 1e-9"}), "geometry.path: cannot read"),
+        (beam(not_xml, "x", boundaries={"x": "x1 < 1e-9"}), "geometry.path: cannot read"),
         (beam(surface, "x", boundaries={"x": "x1 < 1e-9"}), "geometry.path: "),
         (beam(msh, boundaries={"far": "x1 > 5"}), "geometry.boundaries.far: 'x1 > 5' selects "
                                                   "no facet"),

@@ -5,6 +5,7 @@ line naming the key; nothing is raised here."""
 from __future__ import annotations
 
 import dataclasses
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -63,7 +64,7 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     bc = clamped[0] if len(clamped) == 1 else None  # the one clamp (grading, rigid)
     allowed = (*names, "rigid", "none")
     for name in clamped:
-        if name not in allowed:
+        if name not in allowed and not _read_later(cfg, name):
             errors.append(f"boundary.clamp: '{name}' is not a boundary of {_body(cfg)} "
                           f"(allowed: {', '.join(allowed)}; name more in "
                           "geometry.boundaries)")
@@ -103,7 +104,7 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     for key, named in (("loads.traction", loads.traction), ("loads.pressure", loads.pressure),
                        ("boundary.fix", cfg.boundary.fix)):
         for name in named:
-            if name not in names:
+            if name not in names and not _read_later(cfg, name):
                 errors.append(f"{key}.{name}: not a boundary of {_body(cfg)} (allowed: "
                               f"{', '.join(names) or 'none yet'}; name more in "
                               "geometry.boundaries)")
@@ -407,7 +408,8 @@ def _check_file(cfg: Config, errors: list[str]) -> None:
     path = Path(geo.path)
     if path.suffix.lower() not in (*CAD_FORMATS, *MESH_FORMATS):
         errors.append(f"geometry.path: '{geo.path}' has an unknown format; give a CAD part "
-                      f"({', '.join(CAD_FORMATS)}) or a gmsh mesh (.msh)")
+                      f"({', '.join(CAD_FORMATS)}), a gmsh mesh (.msh) or a dolfinx XDMF "
+                      "mesh (.xdmf)")
     elif not path.is_file():
         errors.append(f"geometry.path: file '{geo.path}' not found")
     if cfg.mesh.cells == "hex":
@@ -417,7 +419,8 @@ def _check_file(cfg: Config, errors: list[str]) -> None:
 
 
 def file_groups(cfg: Config) -> tuple[str, ...]:
-    """The physical groups of a .msh body's boundary (its facets' dimension), by name."""
+    """The physical groups of a .msh body's boundary (its facets' dimension), by name; an
+    XDMF body's names (tag_N) are checked once its file is read (physics/geometry.py)."""
     geo = cfg.geometry
     if geo.kind != "file" or geo.path is None or Path(geo.path).suffix.lower() != ".msh" \
             or not Path(geo.path).is_file():
@@ -427,6 +430,12 @@ def file_groups(cfg: Config) -> tuple[str, ...]:
     except (OSError, ValueError):
         return ()  # physics/bodies.py reports an unreadable file, naming geometry.path
     return tuple(n for n, (dim, _) in named.items() if dim == cfg.model.dim - 1)
+
+
+def _read_later(cfg: Config, name: str) -> bool:
+    """An XDMF body's tag_N: its file says whether it is there, once read."""
+    return (cfg.geometry.kind == "file" and Path(cfg.geometry.path or "").suffix.lower()
+            == ".xdmf" and re.fullmatch(r"tag_\d+", name) is not None)
 
 
 def boundary_names(cfg: Config, errors: list[str] | None = None) -> tuple[str, ...]:

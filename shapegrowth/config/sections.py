@@ -33,7 +33,7 @@ BOUNDARIES: dict[str, tuple[str, ...]] = {
 # the bodies geometry.kind: file reads (physics/bodies.py): CAD meshed here, meshes read as
 # they are
 CAD_FORMATS = (".step", ".stp", ".iges", ".igs", ".brep")
-MESH_FORMATS = (".msh",)
+MESH_FORMATS = (".msh", ".xdmf")
 # objective.compare's face names beside the boundaries' own (docs/CONFIG.md)
 FACE_ALIASES: dict[str, dict[str, str]] = {
     "box": {"top": "x3_max", "bottom": "x3_min"},
@@ -77,8 +77,9 @@ class GeometryConfig:
     side: float | None = option("rectangle, cube: side length, centred at the origin", None, gt=0)
     path: str | None = option(
         "file: the body's file, a CAD part (STEP, IGES or BREP: meshed here with the `mesh` "
-        "keys, second order) or a gmsh mesh (.msh, read as it is: its cells, their order and "
-        "its physical groups, which become boundary names)", None)
+        "keys, second order), a gmsh mesh (.msh, read as it is: its cells, their order and "
+        "its physical groups, which become boundary names) or a dolfinx XDMF mesh (.xdmf, "
+        "each value N of its facet tags a boundary named tag_N)", None)
     scale: float = option("file: factor on the file's coordinates (0.001 for a part drawn in "
                           "millimetres and a body in metres)", 1.0, gt=0)
     boundaries: dict[str, str] = option(

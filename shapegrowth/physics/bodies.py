@@ -9,6 +9,9 @@ it is, written once into the mesh cache in the form the built-in bodies take.
 * A ``.msh`` (any version gmsh reads, any order) keeps its cells and nodes; its physical
   groups of the boundary's dimension become boundary names; ``mesh.refine`` refines it
   uniformly; ``geometry.scale`` multiplies its coordinates once read.
+* An XDMF mesh dolfinx wrote (its data in HDF5; simplices of degree 1 or 2, or linear
+  hexahedra or quadrilaterals) is read the same way, each value N of its facet tags a
+  boundary named ``tag_N``.
 
 Either way each face (a CAD face, or a geometric entity of the mesh's boundary) is tagged by
 its own number in the cached mesh, and the names of the file's physical groups are kept, with
@@ -66,6 +69,8 @@ def build_file_body(cfg: Config, out: Path) -> dict[str, list[int]]:
         if is_cad(cfg):
             _mesh_cad(gmsh, cfg, path, tdim)
             groups: dict[str, list[int]] = {}
+        elif path.suffix.lower() == ".xdmf":
+            groups = _read_xdmf(gmsh, path, tdim)
         else:
             groups = _read_msh(gmsh, path, tdim)
         for _ in range(cfg.mesh.refine):
@@ -97,7 +102,8 @@ def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
     solids = gmsh.model.getEntities(tdim)
     faces = gmsh.model.getEntities(tdim - 1)
     if not solids and tdim == 3 and faces:  # IGES and some exports carry the skin alone
-        occ.healShapes(faces, 1e-8 * _diagonal(gmsh), True, True, True, True, True)
+        # the whole model: gmsh 4.13 makes no solid of the faces given as a list
+        occ.healShapes([], 1e-8 * _diagonal(gmsh), True, True, True, True, True)
         occ.synchronize()
         solids = gmsh.model.getEntities(tdim)
         if solids:
@@ -165,6 +171,81 @@ def _read_msh(gmsh, path: Path, tdim: int) -> dict[str, list[int]]:
     for dim, tag in gmsh.model.getPhysicalGroups(tdim - 1):
         name = gmsh.model.getPhysicalName(dim, tag) or f"group_{tag}"
         groups[name] = [int(e) for e in gmsh.model.getEntitiesForPhysicalGroup(dim, tag)]
+    return groups
+
+
+# XDMF's cell kinds that dolfinx writes, as gmsh's element types with the permutation from
+# XDMF's (VTK's) node order to gmsh's (a 10-node tetrahedron numbers its last two edges the
+# other way round); the 27-node hexahedron and 9-node quadrilateral are left to .msh files
+_XDMF_CELLS: dict[str, tuple[int, tuple[int, ...]]] = {
+    "PolyLine": (1, (0, 1)), "Edge_3": (8, (0, 1, 2)),
+    "Triangle": (2, (0, 1, 2)), "Triangle_6": (9, tuple(range(6))),
+    "Quadrilateral": (3, (0, 1, 2, 3)),
+    "Tetrahedron": (4, (0, 1, 2, 3)), "Tetrahedron_10": (11, (0, 1, 2, 3, 4, 5, 6, 7, 9, 8)),
+    "Hexahedron": (5, tuple(range(8))),
+}
+_XDMF_DIM = {"PolyLine": 1, "Edge_3": 1, "Triangle": 2, "Triangle_6": 2, "Quadrilateral": 2,
+             "Tetrahedron": 3, "Tetrahedron_10": 3, "Hexahedron": 3}
+
+
+def _read_xdmf(gmsh, path: Path, tdim: int) -> dict[str, list[int]]:
+    """A mesh dolfinx wrote as XDMF (its data in HDF5) into the gmsh model: the cells, and
+    each value N of its facet tags as the group ``tag_N``."""
+    import xml.etree.ElementTree as ET
+
+    from ..compat import h5py
+
+    try:
+        grids = ET.parse(path).getroot().iter("Grid")
+        read = h5py()
+
+        def data(parent, child: str) -> np.ndarray:
+            """The HDF5 array of ``parent``'s ``child``'s DataItem."""
+            node = parent.find(child) if child else parent
+            item = node.find("DataItem") if node is not None else None
+            if item is None or item.text is None:
+                raise ValueError(f"a {child or 'grid'} without its data")
+            if item.get("Format") != "HDF":
+                raise ValueError("its data are not in HDF5 (write it with dolfinx)")
+            file, dataset = item.text.strip().split(":", 1)
+            with read.File(path.parent / file, "r") as h5:
+                return np.asarray(h5[dataset])
+
+        mesh = None
+        facets: list[tuple[str, np.ndarray, np.ndarray]] = []
+        for grid in grids:
+            topology = grid.find("Topology")
+            kind = topology.get("TopologyType") if topology is not None else None
+            if kind not in _XDMF_CELLS:
+                raise ValueError(f"its cells '{kind}' are not read here (give it as .msh)")
+            if grid.find("Geometry") is not None and _XDMF_DIM[kind] == tdim and mesh is None:
+                mesh = (kind, data(grid, "Topology"), data(grid, "Geometry"))
+            elif _XDMF_DIM[kind] == tdim - 1 and grid.find("Attribute") is not None:
+                facets.append((kind, data(grid, "Topology"),
+                               data(grid, "Attribute").ravel()))
+    except (OSError, ET.ParseError, ValueError, KeyError, AttributeError) as err:
+        raise _refuse(f"cannot read '{path}' as a dolfinx XDMF mesh ({err})") from None
+    if mesh is None:
+        raise _refuse(f"'{path}' holds no {tdim}D cells; give a mesh of the body"
+                      + ("'s volume, or set model.dim: 2 for a plane part" if tdim == 3
+                         else ""))
+    kind, cells, x = mesh
+    xyz = np.zeros((len(x), 3))
+    xyz[:, :x.shape[1]] = x
+    gmsh.model.addDiscreteEntity(tdim, 1)
+    gmsh.model.mesh.addNodes(tdim, 1, np.arange(1, len(xyz) + 1), xyz.ravel())
+    element, order = _XDMF_CELLS[kind]
+    gmsh.model.mesh.addElementsByType(1, element, [], (cells[:, order] + 1).ravel())
+    if tdim == 2:
+        _check_plane(_node_box(gmsh), path)
+    groups: dict[str, list[int]] = {}
+    for kind, nodes, values in facets:
+        element, order = _XDMF_CELLS[kind]
+        for value in np.unique(values):
+            entity = gmsh.model.addDiscreteEntity(tdim - 1)
+            chosen = nodes[values == value][:, order] + 1
+            gmsh.model.mesh.addElementsByType(entity, element, [], chosen.ravel())
+            groups.setdefault(f"tag_{int(value)}", []).append(int(entity))
     return groups
 
 

@@ -273,6 +273,15 @@ def named_boundaries(cfg: Config, mesh, facet_tags, groups: dict[str, tuple[int,
                                "check it against the body's coordinates (a condition holds "
                                "at a facet's centre)"])
         names[name] = facets
+    b = cfg.boundary
+    wanted = [("boundary.clamp", n) for n in b.clamped if n not in ("rigid", "none")] + [
+        (f"{key}.{n}", n) for key, named in (("boundary.fix", b.fix), (
+            "loads.traction", cfg.loads.traction), ("loads.pressure", cfg.loads.pressure))
+        for n in named]
+    for key, name in wanted:  # an XDMF body's tag_N, known once its file is read
+        if name not in names:
+            raise ConfigError([f"{key}: '{name}' is not a boundary of the body (its names: "
+                               f"{', '.join(names) or 'none'})"])
     return names
 
 
