@@ -83,11 +83,15 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
         errors.append(f"boundary.clamp: {list(clamped)} names a boundary twice; name each "
                       "once")
 
+    cad = kind == "file" and Path(geo.path or "").suffix.lower() in CAD_FORMATS
     if cfg.mesh.clamp_size is not None:
-        if (kind, bc) not in GRADED:
+        if cad and clamped and not set(clamped) & {"rigid", "none"}:
+            if cfg.mesh.clamp_size >= cfg.mesh.size:
+                errors.append("mesh.clamp_size: must be smaller than mesh.size (or left out)")
+        elif (kind, bc) not in GRADED:
             graded = ", ".join(f"{k} clamped at {c}" for k, c in GRADED)
-            errors.append(f"mesh.clamp_size: grades the mesh towards a clamp: {graded}; "
-                          "remove the key")
+            errors.append(f"mesh.clamp_size: grades the mesh towards a clamp: {graded}, or "
+                          "a CAD part's clamped faces; remove the key")
         elif cfg.mesh.clamp_size >= cfg.mesh.size:
             errors.append("mesh.clamp_size: must be smaller than mesh.size (or left out)")
 

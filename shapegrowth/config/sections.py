@@ -98,7 +98,8 @@ class MeshConfig:
     layers: int = option("elements through the wall or thickness (layered bodies)", 2, ge=1)
     clamp_size: float | None = option(
         "element size at the clamp (box or tube at x1_min, annulus at inner_rim, "
-        "cylinder_shell at bottom_rim), growing to `size` away from it (resolves the sharp "
+        "cylinder_shell at bottom_rim, a CAD part's clamped faces), growing to `size` away "
+        "from it (resolves the sharp "
         "bend a clamped end needs); default: uniform `size`", None, gt=0)
     grading: float = option("growth of the element size per unit distance from the clamp "
                             "(with clamp_size)", 0.5, gt=0)

@@ -48,6 +48,10 @@ def file_key(cfg: Config) -> dict[str, Any]:
     key: dict[str, Any] = {"file": digest, "format": path.suffix.lower(), "dim": cfg.model.dim}
     if is_cad(cfg):
         key.update(size=cfg.mesh.size, scale=geo.scale)
+        if cfg.mesh.clamp_size is not None:
+            key.update(clamp_size=cfg.mesh.clamp_size, grading=cfg.mesh.grading,
+                       clamp=list(cfg.boundary.clamped),
+                       selectors={n: geo.boundaries.get(n) for n in cfg.boundary.clamped})
     return key
 
 
@@ -132,6 +136,8 @@ def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
             f"between {diagonal / MAX_CELLS_ACROSS:.3g} and {diagonal:.3g}, or the scale of "
             "the file's unit (0.001 for millimetres)", "mesh.size")
     gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+    if cfg.mesh.clamp_size is not None:
+        _graded_towards_clamp(gmsh, cfg, tdim)
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     gmsh.option.setNumber("Mesh.ElementOrder", 2)
     try:
@@ -141,6 +147,41 @@ def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
                       "part or change mesh.size") from None
     if tdim == 2:  # the nodes, not OpenCASCADE's box (widened by the part's tolerance)
         _check_plane(_node_box(gmsh), path)
+
+
+def _graded_towards_clamp(gmsh, cfg: Config, tdim: int) -> None:
+    """``mesh.clamp_size`` on the faces the clamp names (a ``face N`` selector's, or those
+    whose centre a condition holds at), growing by ``mesh.grading`` per unit distance up to
+    ``mesh.size`` (a size field, as the built-in bodies are graded)."""
+    from ..config.expressions import coordinate_env
+    from ..config.selectors import parse_selector
+
+    faces: set[int] = set()
+    every = [t for _, t in gmsh.model.getEntities(tdim - 1)]
+    for name in cfg.boundary.clamped:
+        selector = parse_selector(name, cfg.geometry.boundaries.get(name, ""), (),
+                                  cfg.expression_params)
+        if selector.kind == "faces":
+            faces.update(selector.faces)
+        elif selector.condition is not None:
+            centres = np.array([gmsh.model.occ.getCenterOfMass(tdim - 1, t) for t in every]).T
+            env: dict[str, Any] = dict(cfg.expression_params)
+            env.update(coordinate_env(centres, cfg.cylinder_axis))
+            held = np.broadcast_to(np.asarray(selector.condition(env), bool), (len(every),))
+            faces.update(t for t, h in zip(every, held) if h)
+    if not faces:
+        raise _refuse(f"the clamp {list(cfg.boundary.clamped)} holds no face of the part "
+                      "(its conditions judged at each face's centre) to grade towards; "
+                      "name its faces ('face N'), or remove the key", "mesh.clamp_size")
+    field = gmsh.model.mesh.field
+    distance = field.add("Distance")
+    field.setNumbers(distance, "SurfacesList" if tdim == 3 else "CurvesList", sorted(faces))
+    ramp = field.add("MathEval")
+    h, h_min, rate = cfg.mesh.size, cfg.mesh.clamp_size, cfg.mesh.grading
+    field.setString(ramp, "F", f"min({h}, {h_min} + {rate} * F{distance})")
+    field.setAsBackgroundMesh(ramp)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
 
 
 def _diagonal(gmsh) -> float:

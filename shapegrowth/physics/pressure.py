@@ -153,6 +153,8 @@ def _vertex_coordinates(mesh, global_vertices: np.ndarray) -> dict[int, np.ndarr
     local = np.arange(n, dtype=np.int32)
     numbers = np.asarray(imap.local_to_global(local))
     wanted = np.isin(numbers, global_vertices.ravel())
+    if not wanted.any():
+        return {}  # (dolfinx 0.9's entities_to_geometry divides by zero on no entities)
     mesh.topology.create_connectivity(0, mesh.topology.dim)
     nodes = compat.entities_to_geometry(mesh, 0, local[wanted]).ravel()
     return {int(g): mesh.geometry.x[node].copy() for g, node in zip(numbers[wanted], nodes)}
