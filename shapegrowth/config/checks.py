@@ -416,10 +416,9 @@ def _check_file(cfg: Config, errors: list[str]) -> None:
                       "mesh (.xdmf)")
     elif not path.is_file():
         errors.append(f"geometry.path: file '{geo.path}' not found")
-    if cfg.mesh.cells == "hex":
-        errors.append("mesh.cells: a file body is meshed with simplices (a CAD part) or read "
-                      "with its own cells (a .msh of hexahedra is read as such); remove the "
-                      "key")
+    if cfg.mesh.cells == "hex" and path.suffix.lower() not in CAD_FORMATS:
+        errors.append("mesh.cells: a mesh file is read with its own cells (a .msh of "
+                      "hexahedra as such); remove the key")
 
 
 def file_groups(cfg: Config) -> tuple[str, ...]:

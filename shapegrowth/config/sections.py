@@ -109,7 +109,8 @@ class MeshConfig:
     cells: str = option(
         "cell kind: 'simplex' (triangles in 2D, tetrahedra in 3D) or 'hex' (second-order "
         "quadrilaterals in 2D, hexahedra in 3D, 9 and 27 nodes; structured, `layers` through "
-        "the thickness; `refine` regenerates the mesh with every count doubled, nested)",
+        "the thickness; `refine` regenerates the mesh with every count doubled, nested; a "
+        "CAD part's: where gmsh can sweep it, a block; a mesh file keeps its own cells)",
         "simplex", choices=("simplex", "hex"))
     cache_dir: str = option("folder of the mesh cache", "meshes")
 

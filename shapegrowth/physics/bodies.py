@@ -3,9 +3,10 @@ it is, written once into the mesh cache in the form the built-in bodies take.
 
 * A CAD part (STEP, IGES, BREP) is imported by gmsh's OpenCASCADE kernel (a skin of faces
   without its solid, as IGES files often are, sewn into one), scaled by
-  ``geometry.scale``, meshed with simplices of size ``mesh.size`` and second order (its
-  curved faces followed by the cells' edges), and refined ``mesh.refine`` times (gmsh's
-  uniform refinement, the new nodes on the part's faces).
+  ``geometry.scale``, meshed with simplices of size ``mesh.size`` (or, ``mesh.cells: hex``,
+  structured hexahedra where gmsh can sweep it: blocks) and second order (its curved faces
+  followed by the cells' edges), and refined ``mesh.refine`` times (gmsh's uniform
+  refinement, the new nodes on the part's faces).
 * A ``.msh`` (any version gmsh reads, any order) keeps its cells and nodes; its physical
   groups of the boundary's dimension become boundary names; ``mesh.refine`` refines it
   uniformly; ``geometry.scale`` multiplies its coordinates once read.
@@ -38,6 +39,7 @@ log = logging.getLogger(__name__)
 # a CAD part meshed with more than this many elements along its diagonal is taken for a unit
 # mistake (a part in millimetres meshed with a size in metres), as is one smaller than a cell
 MAX_CELLS_ACROSS = 1000
+READER_VERSION = 1  # bump when a file body's mesh changes, so cached ones are made anew
 
 
 def file_key(cfg: Config) -> dict[str, Any]:
@@ -45,9 +47,10 @@ def file_key(cfg: Config) -> dict[str, Any]:
     geo = cfg.geometry
     path = Path(str(geo.path))
     digest = hashlib.sha1(path.read_bytes()).hexdigest()[:16]
-    key: dict[str, Any] = {"file": digest, "format": path.suffix.lower(), "dim": cfg.model.dim}
+    key: dict[str, Any] = {"file": digest, "format": path.suffix.lower(), "dim": cfg.model.dim,
+                           "reader": READER_VERSION}
     if is_cad(cfg):
-        key.update(size=cfg.mesh.size, scale=geo.scale)
+        key.update(size=cfg.mesh.size, scale=geo.scale, cells=cfg.mesh.cells)
         if cfg.mesh.clamp_size is not None:
             key.update(clamp_size=cfg.mesh.clamp_size, grading=cfg.mesh.grading,
                        clamp=list(cfg.boundary.clamped),
@@ -79,6 +82,8 @@ def build_file_body(cfg: Config, out: Path) -> dict[str, list[int]]:
             groups = _read_msh(gmsh, path, tdim)
         for _ in range(cfg.mesh.refine):
             gmsh.model.mesh.refine()
+        if cfg.mesh.refine and is_cad(cfg):  # gmsh's refinement leaves hexahedra linear
+            gmsh.model.mesh.setOrder(2)  # (new nodes on the part's faces)
         gmsh.model.removePhysicalGroups()
         for _, tag in gmsh.model.getEntities(tdim - 1):
             if len(gmsh.model.mesh.getElementTypes(tdim - 1, tag)):  # a .msh may leave
@@ -138,6 +143,9 @@ def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
     gmsh.option.setNumber("Mesh.MeshSizeMax", size)
     if cfg.mesh.clamp_size is not None:
         _graded_towards_clamp(gmsh, cfg, tdim)
+    if cfg.mesh.cells == "hex":  # structured, where gmsh can sweep the part: blocks
+        gmsh.model.mesh.setTransfiniteAutomatic()
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     gmsh.option.setNumber("Mesh.ElementOrder", 2)
     try:
@@ -147,6 +155,14 @@ def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
                       "part or change mesh.size") from None
     if tdim == 2:  # the nodes, not OpenCASCADE's box (widened by the part's tolerance)
         _check_plane(_node_box(gmsh), path)
+    kinds = [gmsh.model.mesh.getElementProperties(t)[0]
+             for t in gmsh.model.mesh.getElementTypes(tdim)]
+    if cfg.mesh.cells == "hex" and (len(kinds) != 1 or not kinds[0].startswith(
+            ("Hexahedron", "Quadrilateral"))):
+        raise _refuse(f"hex needs a part gmsh can sweep (each solid a block of six four-sided "
+                      f"faces; each face four-sided in 2D), and '{path}' meshes as "
+                      f"{' and '.join(kinds)}; use cells: simplex, or give a .msh of "
+                      "hexahedra", "mesh.cells")
 
 
 def _graded_towards_clamp(gmsh, cfg: Config, tdim: int) -> None:
