@@ -24,8 +24,11 @@ part.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import logging
+import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +42,10 @@ log = logging.getLogger(__name__)
 # a CAD part meshed with more than this many elements along its diagonal is taken for a unit
 # mistake (a part in millimetres meshed with a size in metres), as is one smaller than a cell
 MAX_CELLS_ACROSS = 1000
-READER_VERSION = 1  # bump when a file body's mesh changes, so cached ones are made anew
+READER_VERSION = 2  # bump when a file body's mesh changes, so cached ones are made anew
+# the gaps a skin of faces is sewn across, tried in turn, relative to the part's diagonal
+# (an IGES hammer of OpenCASCADE's samples closes at 1e-5)
+HEALING = (1e-8, 1e-7, 1e-6, 1e-5, 1e-4)
 
 
 def file_key(cfg: Config) -> dict[str, Any]:
@@ -103,21 +109,23 @@ def _refuse(problem: str, key: str = "geometry.path") -> ConfigError:
 def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
     """Import, scale and mesh a CAD part (second order)."""
     occ = gmsh.model.occ
-    try:
-        occ.importShapes(str(path))
-        occ.synchronize()
-    except Exception as err:  # gmsh raises a bare Exception with its log's last line
-        raise _refuse(f"cannot read '{path}' as a CAD part ({err})") from None
+    _import(gmsh, path)
     solids = gmsh.model.getEntities(tdim)
     faces = gmsh.model.getEntities(tdim - 1)
     if not solids and tdim == 3 and faces:  # IGES and some exports carry the skin alone
-        # the whole model: gmsh 4.13 makes no solid of the faces given as a list
-        occ.healShapes([], 1e-8 * _diagonal(gmsh), True, True, True, True, True)
-        occ.synchronize()
-        solids = gmsh.model.getEntities(tdim)
-        if solids:
-            log.info("geometry.path: the %d faces of '%s' sewn into %d solid(s)", len(faces),
-                     path, len(solids))
+        for tolerance in HEALING:  # the tightest first that closes its gaps
+            # the whole model: gmsh 4.13 makes no solid of the faces given as a list
+            occ.healShapes([], tolerance * _diagonal(gmsh), True, True, True, True, True)
+            occ.synchronize()
+            solids = gmsh.model.getEntities(tdim)
+            if solids:
+                log.info("geometry.path: the %d faces of '%s' sewn into %d solid(s) (gaps "
+                         "up to %.0e of its size closed)", len(faces), path, len(solids),
+                         tolerance)
+                break
+            gmsh.model.remove()
+            gmsh.model.add("file")
+            _import(gmsh, path)
     if not solids:
         what = "solid" if tdim == 3 else "face"
         raise _refuse(f"'{path}' holds no {what} (a {tdim}D model meshes a "
@@ -148,6 +156,10 @@ def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
         gmsh.option.setNumber("Mesh.RecombineAll", 1)
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     gmsh.option.setNumber("Mesh.ElementOrder", 2)
+    if cfg.mesh.cells == "simplex":  # curved second-order cells on a coarse mesh of a
+        # curved part can tangle: gmsh's elastic analogy and optimisation move their nodes
+        # until each Jacobian is positive (it takes no pyramids: a failed sweep makes some)
+        gmsh.option.setNumber("Mesh.HighOrderOptimize", 2)
     try:
         gmsh.model.mesh.generate(tdim)
     except Exception as err:
@@ -163,6 +175,31 @@ def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
                       f"faces; each face four-sided in 2D), and '{path}' meshes as "
                       f"{' and '.join(kinds)}; use cells: simplex, or give a .msh of "
                       "hexahedra", "mesh.cells")
+
+
+def _import(gmsh, path: Path) -> None:
+    """The part into the current model; OpenCASCADE's reports (it writes them to the
+    process's output, past gmsh's logger) go nowhere."""
+    try:
+        with _quiet():
+            gmsh.model.occ.importShapes(str(path))
+        gmsh.model.occ.synchronize()
+    except Exception as err:  # gmsh raises a bare Exception with its log's last line
+        raise _refuse(f"cannot read '{path}' as a CAD part ({err})") from None
+
+
+@contextlib.contextmanager
+def _quiet():
+    """The process's standard output closed for the duration (file descriptor 1)."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+            yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
 
 
 def _graded_towards_clamp(gmsh, cfg: Config, tdim: int) -> None:
