@@ -103,9 +103,6 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
         u = compat.evaluate_at_points(model.state.u, on_mesh)
         deformed = (section.deformed_points(probes, u) if section.reduced
                     else probes[:, :cfg.dim] + u)
-    with timer("io"):
-        io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
-                        extra=[model.residual_strain_field(), stability_problem.mode])
     measures = SolveMeasures(
         volume_reference=vol_ref, volume_deformed=vol_def, stress_l2=model.stress_norm(),
         residual_strain=model.residual_strain_norm(),
@@ -114,7 +111,11 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
     summary = base_summary(cfg, model, report, status, timer, solve=measures,
                            linear_solver=linear_use(model.state.newton.linear, tally),
                            stability=stability, **shape)
+    # summary.json before the fields: a writer that fails (dolfinx 0.5.2's XDMF pull-back on
+    # badly distorted curved cells) leaves the numbers
     io.write_json(out / "summary.json", summary.to_json())
+    io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
+                    extra=[model.residual_strain_field(), stability_problem.mode])
     for p, d in zip(probes, deformed):
         log.info("probe X = (%s) -> Phi(X) = (%s)", ", ".join(f"{v:.6g}" for v in p[:n_probe]),
                  ", ".join(f"{v:.6g}" for v in d))

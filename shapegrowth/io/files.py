@@ -10,6 +10,7 @@ and apply "Warp By Vector" with ``displacement`` to see the deformed body.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 from collections.abc import Sequence
@@ -23,6 +24,8 @@ from mpi4py import MPI
 
 from .. import compat
 from ..physics.growth import Growth
+
+log = logging.getLogger(__name__)
 
 
 def write_json(path: Path, data: dict[str, Any], comm: MPI.Comm = MPI.COMM_WORLD) -> None:
@@ -87,7 +90,10 @@ def write_fields(path: Path, displacement: dolfinx.fem.Function, growth: Growth,
     functions += [viewable(f) for f in growth.fields]
     functions += eigenvector_fields(growth)
     functions += [viewable(f) for f in extra]
-    compat.write_xdmf(path, displacement.function_space.mesh, functions)
+    try:
+        compat.write_xdmf(path, displacement.function_space.mesh, functions)
+    except RuntimeError as err:  # dolfinx 0.5.2's pull-back on badly distorted curved cells
+        log.warning("%s: not written (%s); the other outputs are", path, err)
 
 
 def write_growth(path: Path, growth: Growth, refine: int) -> None:
