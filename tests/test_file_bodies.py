@@ -43,6 +43,13 @@ def written(path: Path, make) -> Path:
     return path
 
 
+def config_file(path: Path, raw: dict) -> Path:
+    """``raw`` written as a YAML config on rank 0, then seen by every rank."""
+    import yaml
+
+    return written(path, lambda p: p.write_text(yaml.safe_dump(raw)))
+
+
 def _gmsh(path: Path, build) -> None:
     import gmsh
 
@@ -224,12 +231,7 @@ def test_a_file_body_takes_a_mesh_target_and_its_hexahedra_read_back(shared_tmp)
     geometry = {"kind": "file", "path": str(step), "boundaries": {"base": "face 1"}}
     raw = beam_config(geometry, "base", shared_tmp) | {"target": {"mesh": str(box_mesh)}}
     raw["growth"]["eigenvalues"]["initial"] = [1.0, 1.0, 1.0]
-    config = shared_tmp / "target.yaml"
-    if MPI.COMM_WORLD.rank == 0:
-        import yaml
-
-        config.write_text(yaml.safe_dump(raw))
-    MPI.COMM_WORLD.barrier()
+    config = config_file(shared_tmp / "target.yaml", raw)
     assert run_cli("solve", config, "--out", shared_tmp / "solve", "-q") == 0
     summary = read_json(shared_tmp / "solve" / "summary.json")
     assert summary["hausdorff_final"] / summary["target_size"] < 0.02
@@ -400,12 +402,7 @@ def test_the_pressure_s_potential_is_the_follower_load(shared_tmp):
 def test_a_pressurised_body_has_its_gradient(shared_tmp):
     """The quarter ring at p = 0.2 with a target map: Taylor rate > 1.9 (measured 2.01)."""
     raw = ring_config(shared_tmp, 0.2, target={"map": ["1.1*x1", "1.1*x2"]})
-    config = shared_tmp / "ring.yaml"
-    if MPI.COMM_WORLD.rank == 0:
-        import yaml
-
-        config.write_text(yaml.safe_dump(raw))
-    MPI.COMM_WORLD.barrier()
+    config = config_file(shared_tmp / "ring.yaml", raw)
     out = shared_tmp / "gradcheck"
     assert run_cli("gradcheck", config, "--out", out, "-q") == 0
     check = read_json(out / "gradcheck.json")
@@ -525,12 +522,7 @@ def test_a_msh_body_runs_and_verifies_on_its_refined_mesh(shared_tmp):
     1.2e-8), stable."""
     raw = ring_config(shared_tmp, 0.2, target={"map": ["1.1*x1", "1.1*x2"]},
                       optimizer={"max_iterations": 3})
-    config = shared_tmp / "ring_run.yaml"
-    if MPI.COMM_WORLD.rank == 0:
-        import yaml
-
-        config.write_text(yaml.safe_dump(raw))
-    MPI.COMM_WORLD.barrier()
+    config = config_file(shared_tmp / "ring_run.yaml", raw)
     assert run_cli("run", config, "--out", shared_tmp / "run", "-q") == 0
     summary = read_json(shared_tmp / "run" / "summary.json")
     assert summary["verified"]["refine"] == 1
@@ -567,12 +559,7 @@ def test_a_real_iges_part_is_sewn_meshed_untangled_and_grows(shared_tmp):
     # 1.1^3; fields.xdmf is not written (dolfinx 0.5.2's XDMF pull-back fails on its most
     # distorted cells), said in one line, and summary.json keeps the numbers
     raw |= {"growth": {"eigenvalues": {"initial": [1.21, 1.21, 1.21]}}}
-    config = shared_tmp / "hammer.yaml"
-    if MPI.COMM_WORLD.rank == 0:
-        import yaml
-
-        config.write_text(yaml.safe_dump(raw))
-    MPI.COMM_WORLD.barrier()
+    config = config_file(shared_tmp / "hammer.yaml", raw)
     assert run_cli("solve", config, "--out", shared_tmp / "solve", "-q") == 0
     summary = read_json(shared_tmp / "solve" / "summary.json")
     assert summary["volume_deformed"] / summary["volume_reference"] == pytest.approx(
