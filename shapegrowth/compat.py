@@ -382,3 +382,9 @@ def entities_to_geometry(mesh, dim: int, entities: np.ndarray) -> np.ndarray:
     cpp = getattr(mesh, "_mesh", getattr(mesh, "_cpp_object", mesh))
     return dolfinx.cpp.mesh.entities_to_geometry(cpp, dim, np.asarray(entities, np.int32),
                                                  False)
+
+
+def atan2(y: Any, x: Any) -> Any:
+    """UFL's two-argument arctangent: ``atan_2`` in UFL 2022-2023, ``atan2`` after."""
+    fn = getattr(ufl, "atan2", None) or getattr(ufl, "atan_2")  # noqa: B009
+    return fn(y, x)

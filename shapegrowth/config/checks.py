@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .expressions import CONSTANTS, COORDINATES, FUNCTIONS, Expression, ExpressionError
+from .material_checks import check_material
 from .reduction import SECTIONED, Section, section_of
 from .sections import (
     BOUNDARIES,
@@ -17,12 +18,10 @@ from .sections import (
     CURVED,
     GEOMETRY_PARAMS,
     LAYERED,
-    MATERIAL_PARAMS,
     MESH_FORMATS,
     PAPER_ANGLE_BOUNDS_2D,
     PAPER_ANGLE_BOUNDS_3D,
     GrowthConfig,
-    MaterialConfig,
     ModelConfig,
 )
 from .selectors import msh_physical_names, parse_selector
@@ -170,7 +169,7 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
             errors.append(f"solver.petsc_options.{key}: keys start with state_, adjoint_ "
                           "or filter_")
 
-    material = _check_material(cfg, section, errors)
+    material = check_material(cfg, section, errors)
     return dataclasses.replace(cfg, growth=growth, model=model, material=material,
                                loads=dataclasses.replace(loads, body_force=tuple(body_force)))
 
@@ -329,39 +328,6 @@ def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:
         g, degree=degree,
         eigenvalues=dataclasses.replace(eig, initial=tuple(initial), design=tuple(design)),
         angles=dataclasses.replace(ang, initial=tuple(a_init), bounds=tuple(a_bounds)))
-
-
-def _check_material(cfg: Config, section: Section, errors: list[str]) -> MaterialConfig:
-    """Each energy's constants: those it takes given or defaulted, the others absent; the
-    volumetric part named only where the energy has one to choose."""
-    m = cfg.material
-    params = MATERIAL_PARAMS[m.kind]
-    values: dict[str, float | None] = {}
-    for name in dict.fromkeys(n for kind in MATERIAL_PARAMS.values() for n in kind):
-        given = getattr(m, name)
-        if name in params:
-            values[name] = given if given is not None else params[name]
-            if values[name] is None:
-                errors.append(f"material.{name}: required for kind '{m.kind}' (it takes "
-                              f"{', '.join(params)})")
-        elif given is not None:
-            errors.append(f"material.{name}: not used by kind '{m.kind}' (it takes "
-                          f"{', '.join(params)})")
-    volumetric = m.volumetric
-    if m.kind == "mooney_rivlin":
-        if volumetric is not None:
-            errors.append("material.volumetric: the paper's Mooney-Rivlin energy has its own "
-                          "volumetric part (lmbda); remove the key or choose another kind")
-    else:
-        volumetric = volumetric or "quadratic"
-        if section.stress_free:
-            errors.append(f"material.kind: plane stress holds the third stretch in closed "
-                          f"form for mooney_rivlin only, not {m.kind}; use "
-                          "model.reduction: plane_strain or model.dim: 3")
-    v = values.get
-    return dataclasses.replace(m, volumetric=volumetric, mu1=v("mu1"), mu2=v("mu2"),
-                               lmbda=v("lmbda"), mu=v("mu"), c10=v("c10"), c20=v("c20"),
-                               c30=v("c30"), Jm=v("Jm"), kappa=v("kappa"))
 
 
 def growth_degree(cfg: Config) -> int:

@@ -43,17 +43,22 @@ _BINARY = {
 }
 _UNARY: dict[type, Callable[[Any], Any]] = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 
-Env = Mapping[str, np.ndarray | float]
+Env = Mapping[str, Any]
 
 
 class Expression:
     """A parsed expression; call it with a mapping of names to arrays."""
 
-    def __init__(self, text: str, names: Iterable[str]):
+    def __init__(self, text: str, names: Iterable[str],
+                 functions: Mapping[str, Callable[..., Any]] | None = None):
+        """``functions``: what the calls of ``FUNCTIONS``' names stand for (numpy's by
+        default; UFL's for a strain-energy density, where numbers stay Python floats)."""
         if not isinstance(text, str) or not text.strip():
             raise ExpressionError("empty expression")
         self.text = text
         self._allowed = set(names) | set(CONSTANTS)
+        self._functions = FUNCTIONS if functions is None else functions
+        self._number: Callable[[float], Any] = np.float64 if functions is None else float
         try:
             tree = ast.parse(text.strip(), mode="eval")
         except SyntaxError as err:
@@ -61,7 +66,7 @@ class Expression:
         self.names: set[str] = set()
         self._fn = self._compile(tree.body)
 
-    def __call__(self, env: Env) -> np.ndarray | float:
+    def __call__(self, env: Env) -> Any:
         with np.errstate(all="ignore"):
             return self._fn(env)
 
@@ -72,12 +77,13 @@ class Expression:
         if isinstance(node, ast.Constant):
             if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
                 raise ExpressionError(f"only numbers are allowed as constants, not {node.value!r}")
-            value = np.float64(node.value)  # numpy floats overflow to inf, never raise
+            # numpy floats overflow to inf, never raise
+            value = self._number(node.value)
             return lambda env: value
         if isinstance(node, ast.Name):
             name = node.id
             if name in CONSTANTS:
-                value = np.float64(CONSTANTS[name])
+                value = self._number(CONSTANTS[name])
                 return lambda env: value
             if name not in self._allowed:
                 allowed = ", ".join(sorted(self._allowed))
@@ -100,7 +106,7 @@ class Expression:
                 raise ExpressionError(
                     f"{node.func.id} takes {_ARITY[node.func.id]} positional argument(s)"
                 )
-            fn = FUNCTIONS[node.func.id]
+            fn = self._functions[node.func.id]
             args = [self._compile(a) for a in node.args]
             return lambda env: fn(*(a(env) for a in args))
         raise ExpressionError(f"{type(node).__name__} is not allowed in an expression")

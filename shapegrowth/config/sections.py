@@ -134,14 +134,20 @@ class ModelConfig:
         None, ge=1, le=12)
 
 
-MATERIALS = ("mooney_rivlin", "neo_hookean", "yeoh", "gent")
+MATERIALS = ("mooney_rivlin", "neo_hookean", "yeoh", "gent", "ogden", "energy")
 # each energy's constants: required, or with the default given here
 MATERIAL_PARAMS: dict[str, dict[str, float | None]] = {
     "mooney_rivlin": {"mu1": 0.5, "mu2": 0.5, "lmbda": 3.0},
     "neo_hookean": {"mu": None, "kappa": None},
     "yeoh": {"c10": None, "c20": 0.0, "c30": 0.0, "kappa": None},
     "gent": {"mu": None, "Jm": None, "kappa": None},
+    "ogden": {"kappa": None},
+    "energy": {},
 }
+# the constants that are not single numbers: required by their kind, refused by the others
+MATERIAL_EXTRAS: dict[str, tuple[str, ...]] = {"ogden": ("mu_p", "alpha_p"),
+                                               "energy": ("energy",)}
+OGDEN_TERMS = 3
 VOLUMETRIC = ("quadratic", "log", "simo_taylor")
 
 
@@ -150,8 +156,13 @@ class MaterialConfig:
     kind: str = option(
         "strain energy of the elastic part of F (physics/material.py): the paper's "
         "compressible Mooney-Rivlin (5.1), or on the isochoric invariants with a volumetric "
-        "part U(J): neo_hookean (mu, kappa), yeoh (c10, c20, c30, kappa), gent (mu, Jm, kappa)",
-        "mooney_rivlin", choices=MATERIALS)
+        "part U(J): neo_hookean (mu, kappa), yeoh (c10, c20, c30, kappa), gent (mu, Jm, kappa), "
+        "ogden (mu_p, alpha_p, kappa) on the isochoric principal stretches; or energy: "
+        "material.energy, a density of one's own", "mooney_rivlin", choices=MATERIALS)
+    preset: str | None = option(
+        "a lab material of docs/MATERIALS.md by name (e.g. treloar_ogden): its kind and "
+        "constants (MPa), kappa for Poisson's ratio 0.49; a constant given beside it is taken "
+        "instead of the preset's", None)
     mu1: float | None = option("Mooney-Rivlin mu1 (5.1) (default 0.5)", None, ge=0)
     mu2: float | None = option("Mooney-Rivlin mu2 (5.1) (default 0.5)", None, ge=0)
     lmbda: float | None = option("Mooney-Rivlin volumetric modulus lambda (5.1) (default 3)",
@@ -161,9 +172,18 @@ class MaterialConfig:
     c20: float | None = option("Yeoh's c20 (default 0)", None)
     c30: float | None = option("Yeoh's c30 (default 0)", None)
     Jm: float | None = option("Gent's limit of I1b - 3", None, gt=0)
-    kappa: float | None = option("bulk modulus of U(J) (neo_hookean, yeoh, gent)", None, gt=0)
+    mu_p: tuple[float, ...] | None = option(
+        "Ogden's mu_p, one to three terms: W = sum mu_p/alpha_p (sum_i lb_i^alpha_p - 3) over "
+        "the isochoric stretches lb_i (the shear modulus is sum mu_p alpha_p / 2)", None)
+    alpha_p: tuple[float, ...] | None = option("Ogden's alpha_p, one per mu_p, none zero", None)
+    energy: str | None = option(
+        "kind energy: W0 of the elastic part of F (its volumetric part included) over I1, I2, "
+        "J and I1b = J^(-2/3) I1, I2b = J^(-4/3) I2, and the config's parameters, e.g. "
+        "'c1*(I1b - 3) + k/2*(J - 1)**2'", None)
+    kappa: float | None = option("bulk modulus of U(J) (neo_hookean, yeoh, gent, ogden)", None,
+                                 gt=0)
     volumetric: str | None = option(
-        "U(J) of neo_hookean, yeoh and gent: 'quadratic' kappa/2 (J - 1)^2, 'log' kappa/2 "
+        "U(J) of neo_hookean, yeoh, gent and ogden: 'quadratic' kappa/2 (J - 1)^2, 'log' kappa/2 "
         "(log J)^2 or 'simo_taylor' kappa/4 (J^2 - 1 - 2 log J) (default quadratic)", None,
         choices=VOLUMETRIC)
 

@@ -19,17 +19,37 @@ part, I1b = J^(-2/3) |A|^2, plus U(J):
 * U(J) (``material.volumetric``): ``quadratic`` kappa/2 (J - 1)^2, ``log`` kappa/2 (log J)^2,
   or ``simo_taylor`` kappa/4 (J^2 - 1 - 2 log J).
 
-Each has the small-strain shear modulus mu (2 c10 for Yeoh) and bulk modulus kappa.
+* Ogden: sum_p mu_p/alpha_p (lb_1^alpha_p + lb_2^alpha_p + lb_3^alpha_p - 3) over the
+  isochoric principal stretches lb_i, the square roots of the eigenvalues of
+  J^(-2/3) F C_g^-1 F^T (A A^T, no square root of C_g needed);
+* ``kind: energy``: the user's W0(I1, I2, J, I1b, I2b) (config/energies.py), its text compiled
+  into UFL through the expression parser (never executed).
+
+Each has the small-strain shear modulus mu (2 c10 for Yeoh, sum mu_p alpha_p / 2 for Ogden)
+and bulk modulus kappa.
+
+The eigenvalues of a symmetric 3x3 tensor (Ogden) are the trigonometric roots of its
+characteristic polynomial with the deviator's second invariant shifted by ``EIG_SHIFT``: the
+roots of x^3 - 3 (p^2 + s) x - det(C - q I) = 0, q = tr C / 3, p^2 = |C - q I|^2 / 6.  Unshifted
+they are not differentiable where two coincide (F = I, every uniaxial state) and UFL's
+derivatives divide by zero there; shifted, the power sums of the roots up to the third are
+exact (so are the stress and the tangent at F = I) and the fourth is off by 36 p^2 s: W is
+off by a relative ~s.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import ufl
 from ufl.core.expr import Expr
 
+from .. import compat
 from ..config import Config, resolved
+from ..config.energies import INVARIANTS, parse_energy, small_strain_moduli
+
+EIG_SHIFT = 1e-11  # s above: the error in W ~s, round-off in the stress ~1e-16/sqrt(s)
 
 
 class Energy:
@@ -107,12 +127,7 @@ class Isochoric(Energy):
         raise ValueError(f"unknown energy {self.kind!r}")
 
     def volume(self, J: Expr) -> Expr:
-        """U(J), zero with zero slope at J = 1, of second derivative kappa there."""
-        if self.volumetric == "quadratic":
-            return self.kappa / 2 * (J - 1) ** 2
-        if self.volumetric == "log":
-            return self.kappa / 2 * ufl.ln(J) ** 2
-        return self.kappa / 4 * (J ** 2 - 1 - 2 * ufl.ln(J))
+        return volume(self.volumetric, self.kappa, J)
 
     def psi(self, F: Expr, Cg: Expr) -> Expr:
         """W0(F G^-1) det G for 3x3 tensors F and C_g: |A|^2 = tr(F^T F C_g^-1)."""
@@ -123,7 +138,100 @@ class Isochoric(Energy):
 
 
 
-Material = MooneyRivlin | Isochoric
+def volume(kind: str, kappa: float, J: Expr) -> Expr:
+    """U(J), zero with zero slope at J = 1, of second derivative kappa there."""
+    if kind == "quadratic":
+        return kappa / 2 * (J - 1) ** 2
+    if kind == "log":
+        return kappa / 2 * ufl.ln(J) ** 2
+    return kappa / 4 * (J ** 2 - 1 - 2 * ufl.ln(J))
+
+
+def elastic_invariants(F: Expr, Cg: Expr) -> tuple[Expr, Expr, Expr, Expr]:
+    """sqrt(det C_g), the elastic part's J, A A^T = F C_g^-1 F^T and its trace I1."""
+    det_cg = ufl.det(Cg)
+    root = ufl.sqrt(det_cg)
+    b = F * ufl.cofac(Cg) * F.T / det_cg  # cofac(C_g) = det C_g C_g^-1 (C_g symmetric)
+    return root, ufl.det(F) / root, b, ufl.tr(b)
+
+
+def symmetric_eigenvalues(C: Expr) -> tuple[Expr, Expr, Expr]:
+    """The eigenvalues of a symmetric 3x3 tensor, shifted as the module says (EIG_SHIFT)."""
+    q = ufl.tr(C) / 3
+    D = C - q * ufl.Identity(3)
+    p2 = ufl.inner(D, D) / 6 + EIG_SHIFT * q ** 2
+    p = ufl.sqrt(p2)
+    r = ufl.det(D) / (2 * p * p2)
+    r = ufl.max_value(ufl.min_value(r, 1.0), -1.0)
+    phi = ufl.acos(r) / 3
+    first = q + 2 * p * ufl.cos(phi)
+    third = q + 2 * p * ufl.cos(phi + 2 * np.pi / 3)
+    return first, 3 * q - first - third, third
+
+
+@dataclass(frozen=True)
+class Ogden(Energy):
+    """sum_p mu_p/alpha_p (sum_i lb_i^alpha_p - 3) + U(J) over the isochoric stretches."""
+
+    mu_p: tuple[float, ...]
+    alpha_p: tuple[float, ...]
+    kappa: float
+    volumetric: str = "quadratic"
+
+    @property
+    def shear(self) -> float:
+        return sum(m * a for m, a in zip(self.mu_p, self.alpha_p)) / 2
+
+    @property
+    def modulus(self) -> float:
+        return self.shear + self.kappa
+
+    def psi(self, F: Expr, Cg: Expr) -> Expr:
+        root, je, b, _ = elastic_invariants(F, Cg)
+        squares = symmetric_eigenvalues(je ** (-2.0 / 3.0) * b)  # lb_i^2
+        w = sum(m / a * (sum(c ** (a / 2) for c in squares) - 3)
+                for m, a in zip(self.mu_p, self.alpha_p))
+        return root * (w + volume(self.volumetric, self.kappa, je))
+
+
+# what material.energy's calls stand for in UFL
+UFL_FUNCTIONS = {"sin": ufl.sin, "cos": ufl.cos, "tan": ufl.tan, "exp": ufl.exp,
+                 "log": ufl.ln, "sqrt": ufl.sqrt, "abs": abs,
+                 "arctan2": compat.atan2}
+
+
+@dataclass(frozen=True)
+class UserEnergy(Energy):
+    """``material.energy``: W0 over I1, I2, J, I1b, I2b of the elastic part and named
+    numbers ``params``; its small-strain moduli found by config.energies."""
+
+    text: str
+    params: tuple[tuple[str, float], ...] = ()
+
+    @property
+    def shear(self) -> float:
+        return small_strain_moduli(self.text, dict(self.params)).shear
+
+    @property
+    def kappa(self) -> float:
+        return small_strain_moduli(self.text, dict(self.params)).bulk
+
+    @property
+    def modulus(self) -> float:
+        moduli = small_strain_moduli(self.text, dict(self.params))
+        return moduli.shear + moduli.bulk
+
+    def psi(self, F: Expr, Cg: Expr) -> Expr:
+        root, je, b, i1 = elastic_invariants(F, Cg)
+        i2 = (i1 ** 2 - ufl.inner(b, b)) / 2  # b symmetric: tr(b b) = b : b
+        env: dict[str, object] = dict(self.params)
+        env.update(zip(INVARIANTS, (i1, i2, je, je ** (-2.0 / 3.0) * i1,
+                                    je ** (-4.0 / 3.0) * i2)))
+        expr = parse_energy(self.text, dict(self.params), UFL_FUNCTIONS)
+        return root * expr(env)
+
+
+Material = MooneyRivlin | Isochoric | Ogden | UserEnergy
 
 
 def material_of(cfg: Config) -> Material:
@@ -131,6 +239,12 @@ def material_of(cfg: Config) -> Material:
     m = cfg.material
     if m.kind == "mooney_rivlin":
         return MooneyRivlin(resolved(m.mu1), resolved(m.mu2), resolved(m.lmbda))
+    if m.kind == "ogden":
+        return Ogden(tuple(resolved(m.mu_p)), tuple(resolved(m.alpha_p)), resolved(m.kappa),
+                     resolved(m.volumetric))
+    if m.kind == "energy":
+        params = cfg.expression_params
+        return UserEnergy(resolved(m.energy), tuple(sorted(params.items())))
     return Isochoric(m.kind, resolved(m.kappa), resolved(m.volumetric), mu=m.mu or 0.0,
                      c=(m.c10 or 0.0, m.c20 or 0.0, m.c30 or 0.0), Jm=m.Jm or 0.0)
 

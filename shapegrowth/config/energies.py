@@ -1,0 +1,132 @@
+"""A user's strain-energy density (``material.kind: energy``) checked before any mesh is made,
+and the lab materials ``material.preset`` names.
+
+``material.energy`` is W0 of the elastic part A = F G^-1 written over its invariants
+``I1 = |A|^2``, ``I2 = |cof A|^2``, ``J = det A`` and the isochoric ``I1b = J^(-2/3) I1``,
+``I2b = J^(-4/3) I2``, in the config's expression language (parsed, never executed).  Here it
+is evaluated with numpy on two one-parameter deformations, a simple shear F = I + g e1 (x) e2
+and a dilatation F = (1 + e) I: W0''(g) at 0 is the small-strain shear modulus mu, W0''(e) at 0
+is 9 kappa, and W0'(e) at 0 is 3 times the pressure at rest (central differences, Richardson-
+extrapolated), which must vanish (an energy not stress-free at F = I would move the body
+without growth).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import ExpressionError
+from .expressions import Expression
+
+INVARIANTS = ("I1", "I2", "J", "I1b", "I2b")
+
+STEP = 1e-3  # the central differences' step (extrapolated: relative error ~1e-10)
+REST_TOLERANCE = 1e-6  # the largest pressure at rest, relative to mu + kappa
+
+
+def invariants(F: np.ndarray) -> dict[str, float]:
+    """The names ``material.energy`` may use, of a 3x3 (elastic) deformation gradient."""
+    C = F.T @ F
+    i1 = float(np.trace(C))
+    i2 = float((i1 ** 2 - np.trace(C @ C)) / 2)
+    J = float(np.linalg.det(F))
+    return {"I1": i1, "I2": i2, "J": J, "I1b": J ** (-2 / 3) * i1, "I2b": J ** (-4 / 3) * i2}
+
+
+@dataclass(frozen=True)
+class Moduli:
+    """A strain-energy density's small-strain constants."""
+
+    shear: float
+    bulk: float
+    rest_pressure: float  # dW0/dJ at F = I: zero for an energy stress-free at rest
+
+
+def parse_energy(text: str, params: Mapping[str, float],
+                 functions: Mapping[str, Callable[..., Any]] | None = None) -> Expression:
+    """``material.energy`` parsed over the invariants and the config's named numbers (its
+    calls numpy's, or ``functions``)."""
+    return Expression(text, [*INVARIANTS, *params], functions)
+
+
+def small_strain_moduli(text: str, params: Mapping[str, float]) -> Moduli:
+    """mu, kappa and the pressure at rest of ``material.energy`` (raises ExpressionError)."""
+    expr = parse_energy(text, params)
+
+    def w(F: np.ndarray) -> float:
+        value = float(np.asarray(expr({**params, **invariants(F)}), dtype=float))
+        if not np.isfinite(value):
+            raise ExpressionError(f"W0 is not finite near F = I ({value})")
+        return value
+
+    eye = np.eye(3)
+    shear = np.zeros((3, 3))
+    shear[0, 1] = 1.0
+    w0 = w(eye)
+
+    def second(direction: np.ndarray, scale: float) -> float:
+        """W0'' at 0 along F = scale I + t direction."""
+        return _richardson(lambda h: (w(scale * eye + h * direction) - 2 * w0
+                                      + w(scale * eye - h * direction)) / h ** 2)
+
+    mu = second(shear, 1.0)
+    kappa = second(eye, 1.0) / 9
+    rest = _richardson(lambda h: (w((1 + h) * eye) - w((1 - h) * eye)) / (2 * h)) / 3
+    return Moduli(shear=mu, bulk=kappa, rest_pressure=rest)
+
+
+def _richardson(difference: Callable[[float], float]) -> float:
+    """A central difference of steps STEP and STEP/2 extrapolated: error O(STEP^4)."""
+    return (4 * difference(STEP / 2) - difference(STEP)) / 3
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A lab material: an energy and its constants (MPa), fitted by ``source``."""
+
+    kind: str
+    constants: Mapping[str, float | tuple[float, ...]]
+    source: str
+    note: str = ""
+
+
+# the fits are of incompressible models; the bulk modulus kappa a preset adds is 49.67 mu
+# (Poisson's ratio 0.49 at small strain), which material.kappa overrides
+POISSON = 0.49
+PRESETS: dict[str, Preset] = {
+    "treloar_ogden": Preset(
+        "ogden", {"mu_p": (0.63, 0.0012, -0.01), "alpha_p": (1.3, 5.0, -2.0)},
+        "R. W. Ogden, Proc. R. Soc. Lond. A 326 (1972) 565-584, fitted to L. R. G. Treloar's "
+        "vulcanised natural rubber (Trans. Faraday Soc. 40 (1944) 59); in MPa as G. A. "
+        "Holzapfel, Nonlinear Solid Mechanics (Wiley, 2000), Sect. 6.5",
+        "natural rubber, the classic three-term fit"),
+    "elastosil_m4601": Preset(
+        "yeoh", {"c10": 0.11, "c20": 0.02, "c30": 0.0},
+        "P. Polygerinos et al., IEEE Trans. Robotics 31 (2015) 778-789 (Wacker Elastosil M4601 "
+        "A/B)", "the fibre-reinforced bending actuators' silicone"),
+}
+
+
+def preset_shear(preset: Preset) -> float:
+    """A preset's small-strain shear modulus (MPa)."""
+    c = preset.constants
+    if preset.kind == "ogden":
+        mu_p, alpha_p = c["mu_p"], c["alpha_p"]
+        assert isinstance(mu_p, tuple) and isinstance(alpha_p, tuple)
+        return sum(m * a for m, a in zip(mu_p, alpha_p)) / 2
+    if preset.kind == "yeoh":
+        c10 = c["c10"]
+        assert isinstance(c10, float)
+        return 2 * c10
+    mu = c["mu"]
+    assert isinstance(mu, float)
+    return mu
+
+
+def preset_kappa(preset: Preset) -> float:
+    """The bulk modulus a preset adds: Poisson's ratio ``POISSON`` at small strain."""
+    return round(2 * preset_shear(preset) * (1 + POISSON) / (3 * (1 - 2 * POISSON)), 6)
