@@ -150,6 +150,21 @@ def vector_space(mesh, degree: int):
     return dolfinx.fem.VectorFunctionSpace(mesh, ("CG", degree))
 
 
+def mixed_space(mesh, degree: int):
+    """Taylor-Hood: continuous Lagrange vectors of ``degree`` and a scalar of ``degree - 1``
+    (the displacement and the pressure of the mixed formulation)."""
+    if AT_LEAST_0_9:  # 0.7 moved elements from ufl to basix.ufl
+        import basix.ufl
+        cell = mesh.basix_cell()
+        element = basix.ufl.mixed_element([
+            basix.ufl.element("Lagrange", cell, degree, shape=(mesh.geometry.dim,)),
+            basix.ufl.element("Lagrange", cell, degree - 1)])
+        return dolfinx.fem.functionspace(mesh, element)
+    cell = mesh.ufl_cell()
+    return dolfinx.fem.FunctionSpace(mesh, ufl.MixedElement(
+        [ufl.VectorElement("CG", cell, degree), ufl.FiniteElement("CG", cell, degree - 1)]))
+
+
 def scalar_space(mesh, degree: int, family: str = "Lagrange"):
     """Scalar ``family`` ("Lagrange" or "DG") of ``degree``."""
     if AT_LEAST_0_9:  # 0.7: functionspace (FunctionSpace is the class, not a factory)

@@ -76,20 +76,23 @@ def test_an_alpha_schedule_sharpens_stage_by_stage(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("rtol_far, cells, linear", [
-    (None, "simplex", "auto"), (1e-6, "simplex", "auto"), (None, "hex", "auto"),
-    (None, "simplex", "mumps_ldlt"), (None, "simplex", "mumps_ooc"),
-    (None, "simplex", "mumps_blr")])
-def test_resume_after_sigkill_ends_identical(rtol_far, cells, linear, tmp_path):
+@pytest.mark.parametrize("rtol_far, cells, linear, extra", [
+    (None, "simplex", "auto", ()), (1e-6, "simplex", "auto", ()), (None, "hex", "auto", ()),
+    (None, "simplex", "mumps_ldlt", ()), (None, "simplex", "mumps_ooc", ()),
+    (None, "simplex", "mumps_blr", ()),
+    (None, "simplex", "auto", ("material.incompressible=true",)),
+    (None, "hex", "mumps_ldlt", ("material.formulation=mixed",))])
+def test_resume_after_sigkill_ends_identical(rtol_far, cells, linear, extra, tmp_path):
     """Killed after 3 checkpoints and resumed, a run ends with the uninterrupted one's
     history.  Where the state's tolerance follows the optimiser's progress (solver.rtol_far;
     it comes from the history, replayed steps included) the history agrees to that
     tolerance, not to round-off: the resumed process holds no factors for the tangent
     predictor, so its first warm step reaches the same tolerance by another path (measured
     3.6e-9 apart in J at rtol_far 1e-6).  The same with the LDL^T factorisation, its factor
-    out of core, and its compressed variant under GMRES."""
+    out of core, and its compressed variant under GMRES; and a mixed body (its pressure in
+    the checkpointed state), incompressible on simplices, Q2-Q1 on hexahedra."""
     sets = ["--set", "optimizer.max_iterations=8", "--set", f"mesh.cells={cells}",
-            "--set", f"solver.linear={linear}"]
+            "--set", f"solver.linear={linear}", *[x for e in extra for x in ("--set", e)]]
     if rtol_far is not None:
         sets += ["--set", f"solver.rtol_far={rtol_far}"]
     ref = tmp_path / "uninterrupted"

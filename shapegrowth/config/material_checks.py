@@ -24,7 +24,10 @@ def check_material(cfg: Config, section: Section, errors: list[str]) -> Material
     """The material with a preset's kind and constants filled in, each energy's constants
     given or defaulted, the volumetric part named only where the energy has one to choose."""
     m = _with_preset(cfg.material, errors)
-    params = MATERIAL_PARAMS[m.kind]
+    params = dict(MATERIAL_PARAMS[m.kind])
+    if m.incompressible:  # the pressure holds J = 1: no bulk modulus
+        params.pop("kappa", None)
+        params.pop("lmbda", None)
     takes = ", ".join([*params, *MATERIAL_EXTRAS.get(m.kind, ())])
     values: dict[str, float | None] = {}
     for name in dict.fromkeys(n for kind in MATERIAL_PARAMS.values() for n in kind):
@@ -57,14 +60,16 @@ def check_material(cfg: Config, section: Section, errors: list[str]) -> Material
         errors.append(f"material.kind: plane stress holds the third stretch in closed form "
                       f"for mooney_rivlin only, not {m.kind}; use model.reduction: "
                       "plane_strain or model.dim: 3")
+    formulation = _check_formulation(cfg, m, volumetric, errors)
     if m.kind == "ogden" and m.mu_p is not None and m.alpha_p is not None:
         _check_ogden(m.mu_p, m.alpha_p, errors)
     if m.kind == "energy" and m.energy is not None:
         _check_energy(m.energy, cfg.expression_params, errors)
     v = values.get
-    return dataclasses.replace(m, volumetric=volumetric, mu1=v("mu1"), mu2=v("mu2"),
-                               lmbda=v("lmbda"), mu=v("mu"), c10=v("c10"), c20=v("c20"),
-                               c30=v("c30"), Jm=v("Jm"), kappa=v("kappa"))
+    return dataclasses.replace(m, formulation=formulation, volumetric=volumetric,
+                               mu1=v("mu1"), mu2=v("mu2"), lmbda=v("lmbda"), mu=v("mu"),
+                               c10=v("c10"), c20=v("c20"), c30=v("c30"), Jm=v("Jm"),
+                               kappa=v("kappa"))
 
 
 def _with_preset(m: MaterialConfig, errors: list[str]) -> MaterialConfig:
@@ -84,9 +89,45 @@ def _with_preset(m: MaterialConfig, errors: list[str]) -> MaterialConfig:
     for name, value in preset.constants.items():
         if getattr(m, name) is None:
             changes[name] = value
-    if m.kappa is None:
+    if m.kappa is None and not m.incompressible:
         changes["kappa"] = preset_kappa(preset)
     return dataclasses.replace(m, **changes)
+
+
+def _check_formulation(cfg: Config, m: MaterialConfig, volumetric: str | None,
+                       errors: list[str]) -> str:
+    """The formulation: mixed where asked or incompressible; what the mixed one needs."""
+    formulation = m.formulation or ("mixed" if m.incompressible else "displacement")
+    if m.incompressible and formulation != "mixed":
+        errors.append("material.formulation: an incompressible body needs the mixed "
+                      "formulation; remove the key or set it to mixed")
+    if formulation != "mixed":
+        return formulation
+    if m.kind == "energy":
+        errors.append("material.formulation: mixed splits off the volumetric part kappa/2 "
+                      "(J - 1)^2, which a user's energy does not name; use kind neo_hookean, "
+                      "yeoh, gent, ogden or mooney_rivlin")
+    elif volumetric not in (None, "quadratic"):
+        errors.append(f"material.volumetric: the mixed formulation enforces the quadratic "
+                      f"kappa/2 (J - 1)^2, not {volumetric}; remove the key")
+    if cfg.section.stress_free:
+        errors.append("material.formulation: plane stress holds the third stretch in closed "
+                      "form; a mixed body runs in 3D, plane strain or axial symmetry")
+    if cfg.model.degree != 2:
+        errors.append("model.degree: the mixed formulation is Taylor-Hood, P2 displacements "
+                      "with a P1 pressure; set model.degree: 2")
+    if cfg.solver.linear in ("mumps_blr", "gamg", "hypre"):
+        errors.append(f"solver.linear: {cfg.solver.linear} is for a positive definite "
+                      "tangent; a mixed body's is a saddle point: use mumps, mumps_ldlt, "
+                      "mumps_ooc or auto")
+    if cfg.optimizer.stability.min_eigenvalue is not None:
+        errors.append("optimizer.stability.min_eigenvalue: the stability of a mixed body is "
+                      "not assessed yet; remove the key or use material.formulation: "
+                      "displacement")
+    if cfg.solver.branch == "switch":
+        errors.append("solver.branch: switching needs the stability, not assessed for a mixed "
+                      "body yet; use follow")
+    return formulation
 
 
 def _check_ogden(mu_p: tuple[float, ...], alpha_p: tuple[float, ...],

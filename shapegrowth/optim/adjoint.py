@@ -53,7 +53,7 @@ class AdjointProblem:
 
     def __init__(self, state: StateProblem):
         self.state = state
-        self.p = dolfinx.fem.Function(state.V, name="adjoint")
+        self.p = dolfinx.fem.Function(state.W, name="adjoint")  # of the unknown (u, or u and p)
         self.A = dolfinx.fem.petsc.create_matrix(state.jacobian_form)
         self.rhs = self.A.createVecRight()
         self.ksp = PETSc.KSP().create(state.domain.mesh.comm)
@@ -79,7 +79,7 @@ class AdjointProblem:
         """p for the current state; returns the linear iterations (of a fresh solve) or the
         refinements (with the state's factors)."""
         st = self.state
-        dJdu.copy(self.rhs)
+        st.to_unknown(dJdu, self.rhs)  # zero in a mixed body's pressure: J sees u alone
         self.rhs.scale(-1.0)
         compat.set_bc(self.rhs, st.bcs, alpha=0.0)  # p = 0 where u is prescribed
         if self.reuse and self.state.jacobian_assemblies > 0:

@@ -25,10 +25,12 @@ from .geometry import Domain
 
 
 def clamp_conditions(V: Any, domain: Domain, clamp: str | tuple[str, ...],
-                     axisymmetric: bool = False) -> list:
+                     axisymmetric: bool = False, collapsed: Any = None) -> list:
     """Homogeneous Dirichlet conditions for the displacement space ``V`` on the named
     boundary, or on each of a list of them.  The (R, Z) section of a body of revolution has
-    one rigid motion, the translation along Z: ``rigid`` pins u_Z at A alone there."""
+    one rigid motion, the translation along Z: ``rigid`` pins u_Z at A alone there.  ``V``
+    may be the displacement's subspace of a mixed space, ``collapsed`` its collapse (then
+    the clamp's zero is a function there)."""
     mesh = domain.mesh
     names = (clamp,) if isinstance(clamp, str) else tuple(clamp)
     if names == ("rigid",):
@@ -38,6 +40,10 @@ def clamp_conditions(V: Any, domain: Domain, clamp: str | tuple[str, ...],
     fdim = mesh.topology.dim - 1
     facets = domain.facets(names)
     mesh.topology.create_connectivity(fdim, mesh.topology.dim)  # 0.9 does not create it
+    if collapsed is not None and collapsed is not V:  # a subspace: a zero function
+        dofs = dolfinx.fem.locate_dofs_topological((V, collapsed), fdim, facets)
+        zero_u = dolfinx.fem.Function(collapsed)
+        return [dolfinx.fem.dirichletbc(zero_u, dofs, V)]
     dofs = dolfinx.fem.locate_dofs_topological(V, fdim, facets)
     zero = np.zeros(mesh.geometry.dim, dtype=np.float64)
     return [dolfinx.fem.dirichletbc(zero, dofs, V)]

@@ -88,6 +88,12 @@ class Kinematics:
         Cg3 = self.growth(Cg)
         return self.material.psi(self.deformation(F, u, Cg3), Cg3)
 
+    def psi_mixed(self, F: Expr, u: Expr, Cg: Expr, p: Expr, incompressible: bool) -> Expr:
+        """The mixed formulation's psi(F, p, C_g) (material.Energy.psi_mixed) per unit
+        reference volume (plane stress is refused with it: config.material_checks)."""
+        Cg3 = self.growth(Cg)
+        return self.material.psi_mixed(self.deformation(F, u, Cg3), Cg3, p, incompressible)
+
     def volume_ratio(self, F: Expr, u: Expr) -> Expr:
         """The deformed per reference measure of the model's clouds and volumes: det F, times
         the hoop stretch for a body of revolution (a plane section's area ratio in plane

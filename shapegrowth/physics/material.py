@@ -66,6 +66,26 @@ class Energy:
         """psi in the body's own dimension (3D, or plane strain in 2D)."""
         return self.psi(F, Cg) if F.ufl_shape == (3, 3) else self.psi_plane_strain(F, Cg)
 
+    @property
+    def bulk(self) -> float:
+        """The modulus of the quadratic volumetric part the mixed formulation splits off."""
+        raise NotImplementedError
+
+    def split(self, F: Expr, Cg: Expr) -> tuple[Expr, Expr, Expr]:
+        """sqrt(det C_g), J of the elastic part and psi without its volumetric part
+        bulk/2 (J - 1)^2 det G (the mixed formulation's)."""
+        raise NotImplementedError
+
+    def psi_mixed(self, F: Expr, Cg: Expr, p: Expr, incompressible: bool) -> Expr:
+        """The mixed formulation's psi(F, p, C_g): the volumetric part bulk/2 (J - 1)^2
+        replaced by p (J - 1) - p^2 / (2 bulk), whose stationary point in p is p =
+        bulk (J - 1) and psi again; incompressible, p (J - 1): p the multiplier of J = 1."""
+        root, je, rest = self.split(F, Cg)
+        constraint = p * (je - 1)
+        if not incompressible:
+            constraint = constraint - p ** 2 / (2 * self.bulk)
+        return rest + root * constraint
+
 
 @dataclass(frozen=True)
 class MooneyRivlin(Energy):
@@ -80,17 +100,24 @@ class MooneyRivlin(Energy):
         """A stress scale of the material (mu1 + mu2 + lambda): Newton's force scale."""
         return self.mu1 + self.mu2 + self.lmbda
 
+    @property
+    def bulk(self) -> float:
+        return self.lmbda
+
     def psi(self, F: Expr, Cg: Expr) -> Expr:
         """Energy density (5.1) for 3x3 tensors F (deformation gradient) and C_g."""
+        root, je, rest = self.split(F, Cg)
+        return rest + self.lmbda / 2 * root * (je - 1) ** 2
+
+    def split(self, F: Expr, Cg: Expr) -> tuple[Expr, Expr, Expr]:
         det_cg = ufl.det(Cg)
         root = ufl.sqrt(det_cg)
         J = ufl.det(F)
         H = ufl.cofac(F)
         je = J / root  # det of the elastic part F G^-1
-        return (self.mu1 / 2 / root * ufl.tr(F.T * F * ufl.cofac(Cg))
-                + self.mu2 / 2 / root * ufl.tr(H.T * H * Cg)
-                - (self.mu1 + 2 * self.mu2) * root * ufl.ln(je)
-                + self.lmbda / 2 * root * (je - 1) ** 2)
+        return root, je, (self.mu1 / 2 / root * ufl.tr(F.T * F * ufl.cofac(Cg))
+                          + self.mu2 / 2 / root * ufl.tr(H.T * H * Cg)
+                          - (self.mu1 + 2 * self.mu2) * root * ufl.ln(je))
 
 
 @dataclass(frozen=True)
@@ -129,12 +156,20 @@ class Isochoric(Energy):
     def volume(self, J: Expr) -> Expr:
         return volume(self.volumetric, self.kappa, J)
 
+    @property
+    def bulk(self) -> float:
+        return self.kappa
+
     def psi(self, F: Expr, Cg: Expr) -> Expr:
         """W0(F G^-1) det G for 3x3 tensors F and C_g: |A|^2 = tr(F^T F C_g^-1)."""
+        root, je, rest = self.split(F, Cg)
+        return rest + root * self.volume(je)
+
+    def split(self, F: Expr, Cg: Expr) -> tuple[Expr, Expr, Expr]:
         root = ufl.sqrt(ufl.det(Cg))
         je = ufl.det(F) / root
         i1 = ufl.tr(F.T * F * ufl.cofac(Cg)) / root ** 2  # cofac(C_g) = det C_g C_g^-1
-        return root * (self.deviatoric(je ** (-2.0 / 3.0) * i1) + self.volume(je))
+        return root, je, root * self.deviatoric(je ** (-2.0 / 3.0) * i1)
 
 
 
@@ -186,12 +221,20 @@ class Ogden(Energy):
     def modulus(self) -> float:
         return self.shear + self.kappa
 
+    @property
+    def bulk(self) -> float:
+        return self.kappa
+
     def psi(self, F: Expr, Cg: Expr) -> Expr:
+        root, je, rest = self.split(F, Cg)
+        return rest + root * volume(self.volumetric, self.kappa, je)
+
+    def split(self, F: Expr, Cg: Expr) -> tuple[Expr, Expr, Expr]:
         root, je, b, _ = elastic_invariants(F, Cg)
         squares = symmetric_eigenvalues(je ** (-2.0 / 3.0) * b)  # lb_i^2
         w = sum(m / a * (sum(c ** (a / 2) for c in squares) - 3)
                 for m, a in zip(self.mu_p, self.alpha_p))
-        return root * (w + volume(self.volumetric, self.kappa, je))
+        return root, je, root * w
 
 
 # what material.energy's calls stand for in UFL
@@ -237,15 +280,16 @@ Material = MooneyRivlin | Isochoric | Ogden | UserEnergy
 def material_of(cfg: Config) -> Material:
     """The config's ``material`` as its energy (config.checks resolved its constants)."""
     m = cfg.material
-    if m.kind == "mooney_rivlin":
-        return MooneyRivlin(resolved(m.mu1), resolved(m.mu2), resolved(m.lmbda))
+    if m.kind == "mooney_rivlin":  # incompressible: no lmbda (the pressure holds J = 1)
+        return MooneyRivlin(resolved(m.mu1), resolved(m.mu2), m.lmbda or 0.0)
+    kappa = m.kappa or 0.0  # None where incompressible
     if m.kind == "ogden":
-        return Ogden(tuple(resolved(m.mu_p)), tuple(resolved(m.alpha_p)), resolved(m.kappa),
+        return Ogden(tuple(resolved(m.mu_p)), tuple(resolved(m.alpha_p)), kappa,
                      resolved(m.volumetric))
     if m.kind == "energy":
         params = cfg.expression_params
         return UserEnergy(resolved(m.energy), tuple(sorted(params.items())))
-    return Isochoric(m.kind, resolved(m.kappa), resolved(m.volumetric), mu=m.mu or 0.0,
+    return Isochoric(m.kind, kappa, resolved(m.volumetric), mu=m.mu or 0.0,
                      c=(m.c10 or 0.0, m.c20 or 0.0, m.c30 or 0.0), Jm=m.Jm or 0.0)
 
 

@@ -81,7 +81,7 @@ class _Equations(Protocol):
     StateProblem): the residual and the tangent into PETSc's objects, the unknown, and the
     sample points where the deformation is inverted."""
 
-    u: dolfinx.fem.Function
+    w: dolfinx.fem.Function  # the unknown: the displacement, or (u, p) of a mixed body
 
     def assemble_residual(self, x: PETSc.Vec, b: PETSc.Vec) -> None: ...
 
@@ -106,7 +106,7 @@ class NewtonSolver:
 
     def __init__(self, role: str, problem: _Equations, cfg: Config, force_scale: float,
                  A: PETSc.Mat, b: PETSc.Vec):
-        V = problem.u.function_space
+        V = problem.w.function_space  # the unknown's: the displacement's, or (u, p)
         comm = V.mesh.comm
         self.role, self.comm = role, comm
         self._problem = weakref.ref(problem)
@@ -152,14 +152,14 @@ class NewtonSolver:
 
     def solve(self, reference: float | None = None,
               rtol: float | None = None) -> tuple[bool, int, str]:
-        """Newton's method from the problem's ``u``; ``reference``: the residual norm its
+        """Newton's method from the problem's unknown ``w``; ``reference``: the residual norm its
         relative tolerance is taken of (default: the residual at the start); ``rtol``: that
         tolerance (default solver.rtol).  Converged, iterations, reason."""
         self.factored_by_preset = False
         if self._preset_failures >= linear.GIVE_UP_AFTER:  # the preset does not hold here
             return self._exact_solve(reference, rtol)
-        u = _alive(self._problem).u
-        start = u.x.array.copy() if self.linear != "mumps" else None
+        w = _alive(self._problem).w
+        start = w.x.array.copy() if self.linear != "mumps" else None
         ok, its, reason, linear_failed = self._snes_solve(reference, rtol)
         if not linear_failed or start is None:
             self._preset_failures = 0
@@ -170,7 +170,7 @@ class NewtonSolver:
         self._preset_failures += 1
         if self._preset_failures == linear.GIVE_UP_AFTER:
             linear.give_up(self.role, self.linear)
-        u.x.array[:] = start
+        w.x.array[:] = start
         ok, more, reason = self._exact_solve(reference, rtol)
         return ok, its + more, reason
 
@@ -212,7 +212,7 @@ class NewtonSolver:
         """One SNES solve (see :meth:`solve`); the last: whether its linear solver failed
         (PETSc's reason in the third)."""
         problem = _alive(self._problem)
-        x = compat.petsc_vec(problem.u)
+        x = compat.petsc_vec(problem.w)
         tolerances = self.snes.getTolerances()  # rtol, atol, stol, max_it
         rtol = tolerances[0] if rtol is None else rtol
         if reference is not None:  # the same stopping residual as without the predictor
@@ -230,9 +230,9 @@ class NewtonSolver:
                 self.snes.setTolerances(rtol=tolerances[0], atol=tolerances[1])
         reason = linear.reason_of(self.snes)
         its = self.snes.getIterationNumber()
-        problem.u.x.scatter_forward()
+        problem.w.x.scatter_forward()
         ok = self.comm.allreduce(
-            bool(reason > 0 and np.isfinite(problem.u.x.array).all()), MPI.LAND)
+            bool(reason > 0 and np.isfinite(problem.w.x.array).all()), MPI.LAND)
         if not ok:
             if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
                 return False, its, linear.ksp_reason(self.snes.getKSP()), True

@@ -195,6 +195,8 @@ def solve_watched(state: StateProblem, branch: str = "follow"
     start (``state.carry``) where Newton's method finds no equilibrium is taken again by
     shifted Newton steps (:func:`settle_carried`)."""
     problem = StabilityProblem(state, shared_tangent=True)  # a solve from rest
+    if state.mixed:  # not assessed yet (StabilityProblem): the path is not watched
+        return state.solve(), None, problem
     watch = PathWatch(problem, switch=branch == "switch")
     start = state.snapshot() if state.carried else None
     report = state.solve(watch=watch)
@@ -248,8 +250,7 @@ def _body_size(state: StateProblem) -> float:
 def _put_back(state: StateProblem, owned: np.ndarray) -> None:
     """The state's displacement back to ``owned`` (a :meth:`StateProblem.snapshot`), its
     equilibrium bookkeeping untouched."""
-    state.u.x.array[:len(owned)] = owned
-    state.u.x.scatter_forward()
+    state.put_back(owned)
 
 
 @dataclass(frozen=True)

@@ -114,6 +114,13 @@ class StabilityProblem:
         from slepc4py import SLEPc
 
         self.state, self.count = state, count
+        self.mode = dolfinx.fem.Function(state.V, name="stability_mode")
+        # a mixed body's tangent is a saddle point: its stability (the tangent restricted to
+        # the constraint) is not assessed yet, and assess says so
+        self.unassessed = "not assessed for a mixed body (material.formulation: mixed)" \
+            if state.mixed else None
+        if self.unassessed:
+            return
         # Where the state's factor is out of core (mumps_ooc: memory before time), so is this
         # one: in core it would set the solve's peak (scene 1's 149k DOFs on 2 ranks, from
         # rest: 3.93 GB with both in core, mumps_ldlt; 2.74 GB with the state's alone out of
@@ -130,7 +137,6 @@ class StabilityProblem:
         full.destroy()
         self.K = state.A if shared_tangent else dolfinx.fem.petsc.create_matrix(
             state.jacobian_form)
-        self.mode = dolfinx.fem.Function(V, name="stability_mode")
         self._energy: dolfinx.fem.Form | None = None
         self._order: list[int] = []  # the last solve's eigenpairs, lowest first
         self.options = SolverOptions(self.role, {
@@ -161,6 +167,8 @@ class StabilityProblem:
 
     def assess(self) -> Stability:
         """The stability of the state's equilibrium now; ``self.mode`` the lowest mode."""
+        if self.unassessed:
+            raise StabilityError(self.unassessed)
         # the freed pages of the state's last factorisations back to the system before this
         # factor is made, and this one's after it (heap.py: the peak at 21k DOFs out of core,
         # 2 ranks: 796 -> 559 MB)
@@ -199,6 +207,8 @@ class StabilityProblem:
     def release_factor(self) -> None:
         """Free the eigensolve's factorisation (the next :meth:`assess` factors anew) and
         the freed pages back to the system."""
+        if self.unassessed:
+            return
         self.eps.getST().getKSP().reset()
         heap.trim()
 

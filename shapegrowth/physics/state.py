@@ -95,8 +95,25 @@ class StateProblem:
         self.domain, self.cfg, self.target = domain, cfg, growth
         mesh = domain.mesh
         self.dim = mesh.geometry.dim
-        self.V = compat.vector_space(mesh, cfg.model.degree)
-        self.u = dolfinx.fem.Function(self.V, name="displacement")
+        m = cfg.material
+        self.mixed = m.formulation == "mixed"
+        self.incompressible = bool(m.incompressible)
+        # the unknown w of Newton's method in its space W: the displacement u itself, or
+        # (u, p) of the mixed formulation, u then kept as a copy (sync) for the rest of the code
+        if self.mixed:
+            self.W = compat.mixed_space(mesh, cfg.model.degree)
+            self.w = dolfinx.fem.Function(self.W, name="state")
+            self.V, u_dofs = self.W.sub(0).collapse()
+            self._u_dofs = np.asarray(u_dofs, dtype=np.int32)
+            self.u = dolfinx.fem.Function(self.V, name="displacement")
+            self._disp, self._pressure = ufl.split(self.w)
+            sub = self.W.sub(0)
+        else:
+            self.V = compat.vector_space(mesh, cfg.model.degree)
+            self.u = dolfinx.fem.Function(self.V, name="displacement")
+            self.W, self.w = self.V, self.u
+            self._disp, self._pressure = self.u, None
+            sub = self.V
         self.applied = growth.like()  # the growth that self.u is in equilibrium with
         self.material = material_of(cfg)
         self.kinematics = Kinematics(cfg.section, mesh, self.material)
@@ -107,14 +124,14 @@ class StateProblem:
         self.dx = ufl.Measure("dx", domain=mesh, metadata=metadata)
         self.metadata = metadata
         self.energy = self._energy()
-        self.v, du = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
-        self.residual_ufl = ufl.derivative(self.energy, self.u, self.v)
-        self.jacobian_ufl = ufl.derivative(self.residual_ufl, self.u, du)
+        self.v, du = ufl.TestFunction(self.W), ufl.TrialFunction(self.W)
+        self.residual_ufl = ufl.derivative(self.energy, self.w, self.v)
+        self.jacobian_ufl = ufl.derivative(self.residual_ufl, self.w, du)
         self.residual_form = dolfinx.fem.form(self.residual_ufl)
         self.jacobian_form = dolfinx.fem.form(self.jacobian_ufl)
-        self.bcs = clamp_conditions(self.V, domain, cfg.boundary.clamp,
-                                    cfg.section.axisymmetric) + \
-            fixed_conditions(self.V, domain, cfg.boundary.fix, cfg.section.axes)
+        self.bcs = clamp_conditions(sub, domain, cfg.boundary.clamp,
+                                    cfg.section.axisymmetric, collapsed=self.V) + \
+            fixed_conditions(sub, domain, cfg.boundary.fix, cfg.section.axes)
 
         self.A = dolfinx.fem.petsc.create_matrix(self.jacobian_form)
         self.b = compat.create_vector(self.residual_form)
@@ -131,13 +148,36 @@ class StateProblem:
         self._det_F = self._det_F_sampler(max(cfg.quadrature_degree,
                                               cfg.objective.hausdorff.quadrature_degree))
 
+    def sync(self) -> None:
+        """The displacement ``u`` from the unknown ``w`` (the mixed formulation's; nothing to
+        do for the displacement alone): after every change of ``w``."""
+        if self.mixed:
+            self.w.x.scatter_forward()
+            self.u.x.array[:] = self.w.x.array[self._u_dofs]
+
+    def to_unknown(self, vec_u: PETSc.Vec, vec_w: PETSc.Vec) -> None:
+        """A vector of the displacement's DOFs (e.g. dJ/du) into ``vec_w`` of the unknown's,
+        zero in the pressure's (owned entries; a copy for the displacement alone)."""
+        if not self.mixed:
+            vec_u.copy(vec_w)
+            return
+        owned = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
+        vec_w.zeroEntries()
+        target = vec_w.getArray()
+        target[self._u_dofs[:owned]] = vec_u.getArray(readonly=True)[:owned]
+        vec_w.setArray(target)
+
     # ---- the model -------------------------------------------------------------------------
     def deformation_gradient(self) -> ufl.core.expr.Expr:
-        return deformation_gradient(self.u)
+        return deformation_gradient(self._disp)
 
     def energy_density(self, F: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
-        """psi of (5.1) per unit reference volume at the mesh's deformation gradient F."""
-        return self.kinematics.psi(F, self.u, self.applied.tensor())
+        """psi of (5.1) per unit reference volume at the mesh's deformation gradient F (with
+        the pressure of the mixed formulation)."""
+        if self._pressure is not None:
+            return self.kinematics.psi_mixed(F, self._disp, self.applied.tensor(),
+                                             self._pressure, self.incompressible)
+        return self.kinematics.psi(F, self._disp, self.applied.tensor())
 
     def _energy(self) -> ufl.Form:
         w = self.weight
@@ -147,13 +187,13 @@ class StateProblem:
         body_force = resolved(loads.body_force)
         if any(body_force):
             f = dolfinx.fem.Constant(self.domain.mesh, np.array(body_force, dtype=float)[axes])
-            energy -= self.load_scale * ufl.dot(f, self.u) * w * self.dx
+            energy -= self.load_scale * ufl.dot(f, self._disp) * w * self.dx
         for name, vec in loads.traction.items():
             if any(vec):
                 s0 = dolfinx.fem.Constant(self.domain.mesh, np.array(vec, dtype=float)[axes])
-                energy -= self.load_scale * ufl.dot(s0, self.u) * w * \
+                energy -= self.load_scale * ufl.dot(s0, self._disp) * w * \
                     self.domain.ds(name, self.metadata)
-        pressure = pressure_energy(self.domain, self.cfg, self.u, self.metadata,
+        pressure = pressure_energy(self.domain, self.cfg, self._disp, self.metadata,
                                    self.load_scale)
         return energy if pressure is None else energy + pressure
 
@@ -165,7 +205,7 @@ class StateProblem:
     def volume_ratio(self) -> ufl.core.expr.Expr:
         """Deformed per reference measure (det F; times the hoop stretch for a body of
         revolution)."""
-        return self.kinematics.volume_ratio(self.deformation_gradient(), self.u)
+        return self.kinematics.volume_ratio(self.deformation_gradient(), self._disp)
 
     def force_scale(self) -> float:
         """The material's stress scale (mu1 + mu2 + lambda for the paper's) times
@@ -192,9 +232,9 @@ class StateProblem:
     def assemble_residual(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
         """R(x) into ``b``, with the Dirichlet rows set to x - g (SNES's residual)."""
         x.ghostUpdate(addv=_INSERT, mode=_FORWARD)
-        u = compat.petsc_vec(self.u)
-        x.copy(u)
-        u.ghostUpdate(addv=_INSERT, mode=_FORWARD)
+        w = compat.petsc_vec(self.w)
+        x.copy(w)
+        w.ghostUpdate(addv=_INSERT, mode=_FORWARD)
         with b.localForm() as b_local:
             b_local.set(0.0)
         dolfinx.fem.petsc.assemble_vector(b, self.residual_form)
@@ -223,7 +263,7 @@ class StateProblem:
         while each leaves at most ``chord_contraction`` of the residual; a step that does not
         reduce it is undone.  Returns the residual norm before the first step (the reference
         of Newton's relative tolerance) and the steps kept (collective)."""
-        x, b, du = compat.petsc_vec(self.u), self._chord_b, self._chord_du
+        x, b, du = compat.petsc_vec(self.w), self._chord_b, self._chord_du
         ksp = self.newton.snes.getKSP()
         self.assemble_residual(x, b)
         r0 = previous = b.norm()
@@ -248,7 +288,7 @@ class StateProblem:
                 contraction, previous = r / previous, r
                 if contraction > self.chord_contraction:
                     break
-        self.u.x.scatter_forward()
+        self.w.x.scatter_forward()
         return r0, kept
 
     def _warm_rtol(self) -> float:
@@ -258,7 +298,9 @@ class StateProblem:
         """Newton's method from the current displacement under the growth applied now (a
         state moved off its equilibrium, e.g. onto another branch): converged, iterations,
         reason."""
-        return self.newton.solve()
+        result = self.newton.solve()
+        self.sync()
+        return result
 
     # ---- continuation ----------------------------------------------------------------------
     # The state's lifecycle: at rest (after construction or ``reset``), in equilibrium with
@@ -278,7 +320,8 @@ class StateProblem:
     def reset(self, step_scale: float = 1.0) -> None:
         """Forget the equilibrium: the next solve starts from rest, its first load step
         ``step_scale`` times ``solver.continuation.initial_step``."""
-        self.u.x.array[:] = 0.0
+        self.w.x.array[:] = 0.0
+        self.sync()
         self._at_rest = True
         self._equilibrium = None
         self._first_step_scale = step_scale
@@ -294,19 +337,29 @@ class StateProblem:
         already."""
         interpolate_between_meshes(source, self.u)
         self.u.x.scatter_forward()
+        if self.mixed:  # the displacement carried; the pressure from rest (zero)
+            self.w.x.array[:] = 0.0
+            self.w.x.array[self._u_dofs] = self.u.x.array
         self._at_rest = False
         self._equilibrium = None  # solve: a carried guess, not an equilibrium
 
     def snapshot(self) -> np.ndarray:
-        """A copy of the owned displacement DOFs."""
-        n = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
-        return self.u.x.array[:n].copy()
+        """A copy of the owned DOFs of the unknown (the displacement, and the mixed
+        formulation's pressure)."""
+        n = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
+        return self.w.x.array[:n].copy()
+
+    def put_back(self, owned: np.ndarray) -> None:
+        """The unknown's owned DOFs set to ``owned`` (a :meth:`snapshot`), the equilibrium's
+        bookkeeping untouched."""
+        self.w.x.array[:len(owned)] = owned
+        self.w.x.scatter_forward()
+        self.sync()
 
     def restore(self, owned: np.ndarray) -> None:
         """Take the displacement ``owned`` (a :meth:`snapshot`) as the equilibrium of the
         growth ``target`` now holds."""
-        self.u.x.array[:len(owned)] = owned
-        self.u.x.scatter_forward()
+        self.put_back(owned)
         self.applied.assign(self.target.values())
         self.load_scale.value = 1.0
         self._equilibrium = self.target.values()
@@ -333,7 +386,7 @@ class StateProblem:
         # continued check); warm re-solves (optimisation) only in --verbose
         level = logging.INFO if self._at_rest or carried else logging.DEBUG
         t = 0.0
-        saved = self.u.x.array.copy()
+        saved = self.w.x.array.copy()
         previous: tuple[float, np.ndarray] | None = None  # the equilibrium before `saved`
         hold = 0  # converged steps still to make at the size a failure cut to
         while t < 1.0 - 1e-14:
@@ -348,23 +401,24 @@ class StateProblem:
                 rtol = cont.step_rtol
             if previous is not None:  # secant predictor along the equilibrium path
                 t_prev, u_prev = previous
-                self.u.x.array[:] = saved + (trial - t) / (t - t_prev) * (saved - u_prev)
+                self.w.x.array[:] = saved + (trial - t) / (t - t_prev) * (saved - u_prev)
             elif first_at_full and self.cfg.solver.chord_steps and \
                     self.jacobian_assemblies > 0:  # a warm step: the tangent predictor
                 reference, chords = self._chord()
                 report.chord_steps += chords
             ok, its, reason = self.newton.solve(reference, rtol)
+            self.sync()
             report.newton_iterations += its
             if ok:
                 previous = (t, saved.copy())
                 t = trial
-                saved[:] = self.u.x.array
+                saved[:] = self.w.x.array
                 report.steps += 1
                 report.history.append((t, its))
                 log.log(level, "  load step %3d: t = %.4f (step %.3g), %2d Newton iterations",
                         report.steps, t, dt, its)
                 if watch is not None and watch(t):  # moved onto another branch at t
-                    saved[:] = self.u.x.array
+                    saved[:] = self.w.x.array
                     previous = None
                 if hold > 0:
                     hold -= 1
@@ -372,7 +426,8 @@ class StateProblem:
                     dt *= 2.0
                 continue
             report.failed_steps += 1
-            self.u.x.array[:] = saved
+            self.w.x.array[:] = saved
+            self.sync()
             if carried:  # smaller steps toward the same growth cannot help
                 log.log(level, "  Newton's method from the carried state failed (%s after %d "
                         "iterations)", reason, its)
