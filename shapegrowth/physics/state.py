@@ -104,7 +104,7 @@ class StateProblem:
             self.W = compat.mixed_space(mesh, cfg.model.degree)
             self.w = dolfinx.fem.Function(self.W, name="state")
             self.V, u_dofs = self.W.sub(0).collapse()
-            self._u_dofs = np.asarray(u_dofs, dtype=np.int32)
+            self._u_dofs = np.asarray(u_dofs, dtype=np.int32).ravel()  # 0.11: a list of one
             self.u = dolfinx.fem.Function(self.V, name="displacement")
             self._disp, self._pressure = ufl.split(self.w)
             sub = self.W.sub(0)
