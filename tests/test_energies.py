@@ -269,12 +269,13 @@ def test_a_preset_gives_its_kind_and_constants_and_a_key_beside_it_wins():
     pytest.param("gent", ["material.kind=gent", "material.mu=1", "material.Jm=4",
                           "material.kappa=3", "material.volumetric=simo_taylor"],
                  marks=pytest.mark.slow),
+    ("yeoh", SETS["yeoh"]),
     pytest.param("ogden", ["material.preset=treloar_ogden"], marks=pytest.mark.slow),
     ("energy", SETS["energy"]),
 ])
 def test_a_body_of_another_energy_has_its_gradient(name, sets, shared_tmp):
-    """The reduced gradient of the tiny beam's objective on a neo-Hookean (a Gent), an
-    Ogden and a user's energy's body: Taylor rate > 1.9 in a random smooth direction (``shapegrowth gradcheck``)."""
+    """The reduced gradient of the tiny beam's objective on a neo-Hookean, a Yeoh (a Gent),
+    an Ogden and a user's energy's body: Taylor rate > 1.9 in a random smooth direction (``shapegrowth gradcheck``)."""
 
     out = shared_tmp / name
     assert run_cli("gradcheck", CONFIGS / "tiny" / "beam_wave.yaml", "--out", out, "-q",
