@@ -211,7 +211,8 @@ def test_a_free_cube_under_traction_takes_each_energy_s_homogeneous_stretch(name
      "material.kappa: required for kind 'gent'"),
     (["material.kind=neo_hookean", "material.mu=1", "material.kappa=5", "model.dim=2",
       "model.reduction=plane_stress", "mesh.layers=2"],
-     "material.kind: plane stress holds the third stretch in closed form for mooney_rivlin"),
+     "material.kind: plane stress holds the third stretch in closed form for a compressible "
+     "mooney_rivlin or any incompressible body"),
     (["material.kind=ogden", "material.mu_p=[1, 2]", "material.alpha_p=[2]",
       "material.kappa=5"], "material.alpha_p: one alpha_p per mu_p, 1 to 3 terms"),
     (["material.kind=ogden", "material.mu_p=[1]", "material.alpha_p=[0]", "material.kappa=5"],

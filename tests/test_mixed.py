@@ -1,8 +1,9 @@
 """The mixed displacement-pressure formulation (``material.formulation: mixed``, Taylor-Hood)
 and its incompressible limit (``material.incompressible``): the same energy's homogeneous
 closed forms, J of the elastic part held at 1, the reduced gradient's Taylor rate, no
-locking where the displacement element locks, and its config; serial and 2 ranks (the exact
-resume of a mixed run: tests/test_optimize.py)."""
+locking where the displacement element locks, and its config; an incompressible sheet in
+plane stress (J = 1 through the third stretch: any energy, the displacement alone); serial
+and 2 ranks (the exact resume of a mixed run: tests/test_optimize.py)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from scipy.optimize import brentq, fsolve
 from test_energies import closed_stress
 
 from shapegrowth.config import ConfigError, load
-from shapegrowth.physics.material import Isochoric
+from shapegrowth.physics.material import Isochoric, MooneyRivlin, Ogden
 
 CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"
 BEAM = CONFIGS / "tiny" / "beam_bend.yaml"
@@ -99,6 +100,89 @@ def test_a_mixed_body_has_its_gradient(sets, shared_tmp):
     assert min(check["rates"]) > 1.9, check
 
 
+def test_an_incompressible_section_in_plane_stress_holds_j_at_one():
+    """The third stretch of an incompressible plane-stress section makes J of the elastic
+    part 1 at any F and C_g, and at F = G (the grown shape) it is sqrt(lambda_3)."""
+    import dolfinx.fem
+    import ufl
+    from mpi4py import MPI
+
+    from shapegrowth import compat
+    from shapegrowth.config.reduction import Section
+    from shapegrowth.physics.kinematics import Kinematics, block
+
+    mesh = dolfinx.mesh.create_unit_square(MPI.COMM_SELF, 1, 1)
+    one = dolfinx.fem.Constant(mesh, 1.0)
+    kin = Kinematics(Section("plane_stress", (0, 2), stress_free=True), mesh,
+                     Isochoric("neo_hookean", kappa=0.0, mu=1.0), incompressible=True)
+    F = one * ufl.as_matrix([[1.3, 0.2], [-0.1, 0.8]])
+    Cg = one * ufl.as_matrix([[1.5, 0.1, 0.0], [0.1, 0.7, 0.0], [0.0, 0.0, 1.8]])
+    u = ufl.as_vector([0.0, 0.0])
+
+    def at(expr):
+        return float(compat.evaluate_expression(expr, np.array([[0.3, 0.3]]), mesh, [0])[0, 0])
+
+    F3 = block(F, kin.third_stretch(F, u, Cg))
+    assert at(ufl.det(F3) / ufl.sqrt(ufl.det(Cg))) == pytest.approx(1.0, abs=1e-14)
+    G = one * ufl.as_matrix([[1.5 ** 0.5, 0.0], [0.0, 0.7 ** 0.5]])
+    Cd = one * ufl.as_matrix([[1.5, 0.0, 0.0], [0.0, 0.7, 0.0], [0.0, 0.0, 1.8]])
+    assert at(kin.third_stretch(G, u, Cd)) == pytest.approx(1.8 ** 0.5, rel=1e-13)
+
+
+# incompressible energies in plane stress (kappa 0: the constraint takes the volumetric part)
+SHEETS = {
+    "mooney_rivlin": ([], None),
+    "neo_hookean": (NH, Isochoric("neo_hookean", kappa=0.0, mu=0.8)),
+    "yeoh": (["material.preset=elastosil_m4601"],
+             Isochoric("yeoh", kappa=0.0, c=(0.11, 0.02, 0.0))),
+    "ogden": (["material.preset=treloar_ogden"],
+              Ogden((0.63, 0.0012, -0.01), (1.3, 5.0, -2.0), kappa=0.0)),
+}
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n == "ogden"
+                                  else n for n in SHEETS])
+def test_an_incompressible_sheet_in_plane_stress_takes_the_uniaxial_closed_form(name,
+                                                                               shared_tmp):
+    """A free square section of a box in plane stress, incompressible, under traction s on
+    its X1 faces: the homogeneous stretch a with s = dW/da along F = diag(a, a^-1/2, a^-1/2)
+    (closed_stress's P, the constraint's pressure eliminated: P11 - a^(-3/2) (P22 + P33) / 2),
+    and its area a^(1/2)."""
+    sets, m = SHEETS[name]
+    m = m if m is not None else MooneyRivlin(0.5, 0.5, 0.0)
+    s = 0.1 if name == "yeoh" else 0.3
+    assert run_cli("solve", CUBE, "--out", shared_tmp, "-q", "--probe", "1,0,0", "--probe",
+                   "0,0,0", *_sets("geometry={kind: box, length: 1, width: 1, thickness: 1}",
+                                   "mesh.layers=2", "model.dim=2",
+                                   "model.reduction=plane_stress", "model.degree=2",
+                                   "material.incompressible=true", *sets,
+                                   f"loads.traction={{x1_max: [{s}, 0, 0], "
+                                   f"x1_min: [{-s}, 0, 0]}}")) == 0
+    summary = read_json(shared_tmp / "summary.json")
+    probes = np.array([p["deformed"] for p in summary["probes"]])
+
+    def nominal(a: float) -> float:
+        P = closed_stress(m, np.diag([a, a ** -0.5, a ** -0.5]), np.eye(3))
+        return P[0, 0] - a ** -1.5 * (P[1, 1] + P[2, 2]) / 2 - s
+
+    a0 = brentq(nominal, 1.0, 3.0, xtol=1e-15)
+    assert probes[0, 0] - probes[1, 0] == pytest.approx(a0, rel=1e-9)
+    assert summary["volume_deformed"] == pytest.approx(a0 ** 0.5, rel=1e-9)
+
+
+@pytest.mark.mpi
+def test_an_incompressible_sheet_has_its_gradient(shared_tmp):
+    """The plane-stress section of an incompressible Yeoh beam (Elastosil): Taylor rate > 1.9
+    (measured 2.001-2.011)."""
+    assert run_cli("gradcheck", CONFIGS / "tiny" / "beam_wave.yaml", "--out", shared_tmp,
+                   "-q", *_sets("model.dim=2", "model.reduction=plane_stress",
+                                "material.preset=elastosil_m4601",
+                                "material.incompressible=true")) == 0
+    check = read_json(shared_tmp / "gradcheck.json")
+    assert min(check["rates"]) > 1.9, check
+
+
 def _tip(out, sets: list[str]) -> float:
     """The thin cantilever's tip deflection under scripts/locking.py's load at nu = 0.4999
     (E = 2.9998: the Euler-Bernoulli deflection 1e-3)."""
@@ -143,6 +227,9 @@ def test_the_mixed_element_does_not_lock_where_the_displacement_element_does(sha
      "solver.branch: switching needs the stability"),
     (["material.incompressible=true", *NH, "material.kappa=5"],
      "material.kappa: not used by kind 'neo_hookean'"),
+    (["material.incompressible=true", "material.formulation=mixed", "model.dim=2",
+      "model.reduction=plane_stress"],
+     "material.formulation: plane stress holds the third stretch in closed form"),
 ])
 def test_the_mixed_formulation_s_config_says_what_it_needs(sets, words):
     with pytest.raises(ConfigError) as err:
@@ -156,3 +243,7 @@ def test_an_incompressible_body_is_mixed_and_a_preset_adds_no_kappa():
     assert (m.formulation, m.kappa, m.kind) == ("mixed", None, "ogden")
     m = load(CONFIGS / "tiny" / "beam_wave.yaml").material
     assert (m.formulation, m.incompressible) == ("displacement", False)
+    m = load(CONFIGS / "tiny" / "beam_wave.yaml",  # a sheet: J = 1 by its third stretch
+             ["model.dim=2", "model.reduction=plane_stress", "material.preset=treloar_ogden",
+              "material.incompressible=true"]).material
+    assert (m.formulation, m.kappa, m.kind) == ("displacement", None, "ogden")

@@ -113,11 +113,15 @@ def test_the_plane_stress_stretch_leaves_the_third_direction_free_of_stress():
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("reduction", ["plane_strain", "plane_stress"])
-def test_a_compatible_bend_gives_the_arc_in_the_x1x3_section(reduction):
+@pytest.mark.parametrize("reduction, sets", [
+    ("plane_strain", []), ("plane_stress", []),
+    ("plane_stress", ["material.preset=elastosil_m4601", "material.incompressible=true"])],
+    ids=["plane_strain", "plane_stress", "plane_stress-incompressible-yeoh"])
+def test_a_compatible_bend_gives_the_arc_in_the_x1x3_section(reduction, sets):
     """lambda_1 = (1 + kappa x3)^2 bends the beam stress-free into the arc of curvature
-    kappa = pi (a half circle): tip at (sin(kappa L)/kappa, -(1 - cos kappa L)/kappa)."""
-    cfg = _section(BEND, f"model.reduction={reduction}", "mesh.size=0.02")
+    kappa = pi (a half circle): tip at (sin(kappa L)/kappa, -(1 - cos kappa L)/kappa); so
+    does an incompressible Yeoh section (J = 1 through its third stretch)."""
+    cfg = _section(BEND, f"model.reduction={reduction}", "mesh.size=0.02", *sets)
     model = sg.build_model(cfg)
     assert model.state.solve().converged
     tip = sg.evaluate_at(model.state.u, np.array([[1.0, 0.0, 0.0]]))[0]
@@ -381,6 +385,39 @@ def test_lift_refuses_a_run_folder_without_a_run_and_another_body(shared_tmp, ca
         "the lift must measure what the run compared"]
     check_liftable(_section(WAVE, "objective.compare=top"),
                    sg.load_config(WAVE, ["objective.compare=top"]))
+
+
+def test_a_run_lifts_onto_its_own_material_and_a_mismatch_stops_it_before_it_starts(
+        shared_tmp, capsys):
+    """A run's --set material.* applies to the config it lifts onto (the same body in the
+    same material); the formulation may differ (an incompressible section in plane stress
+    holds J = 1 through its third stretch, its 3D body through a pressure); a lift config of
+    another material is refused before the run optimises anything."""
+    import yaml
+
+    from shapegrowth.commands.run import lift_config
+    from shapegrowth.optim.lift import check_liftable
+
+    sets = ["model.dim=2", "model.reduction=plane_stress", "material.preset=elastosil_m4601",
+            "material.incompressible=true", f"verify.lift={WAVE}", "mesh.size=0.2"]
+    section = sg.load_config(WAVE, sets)
+    solid = lift_config(section, sets)
+    assert solid is not None and solid.model.dim == 3 and solid.mesh.size == 0.1
+    assert (section.material.formulation, solid.material.formulation) == ("displacement",
+                                                                          "mixed")
+    assert solid.material.kind == "yeoh" and solid.material.c10 == section.material.c10
+    with pytest.raises(sg.ConfigError, match="verify.lift: 'tiny_beam_wave' has another "
+                                             "material than the run"):
+        check_liftable(section, sg.load_config(WAVE))
+    other = shared_tmp / "other.yaml"
+    raw = yaml.safe_load(WAVE.read_text())
+    raw["material"] = {"mu1": 0.7}
+    other.write_text(yaml.safe_dump(raw))
+    out = shared_tmp / "run"
+    assert run_cli("run", str(WAVE), "--out", str(out), "--set", "model.dim=2",
+                   "--set", "model.reduction=plane_stress", "--set", f"verify.lift={other}") == 2
+    assert "error: verify.lift: 'tiny_beam_wave' has another material" in capsys.readouterr().err
+    assert not (out / "summary.json").exists() and not (out / "history.csv").exists()
 
 
 @pytest.mark.mpi

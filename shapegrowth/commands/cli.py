@@ -182,9 +182,11 @@ def _gradcheck(cfg, args) -> int:
 
 
 def _run(cfg, args) -> int:
-    from .run import run_optimization
+    from .run import lift_config, run_optimization
 
-    return _exit_status(run_optimization(cfg, args.out or cfg.output_dir, args.resume).summary)
+    onto = lift_config(cfg, args.overrides)  # its problems before the run starts
+    return _exit_status(run_optimization(cfg, args.out or cfg.output_dir, args.resume,
+                                         onto).summary)
 
 
 def _lift(cfg, args) -> int:

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from ..config import load
+from ..config import Config, load
 from ..errors import StateSolveError
 from ..io import files as io
 from ..io.figures3d import write_shape3d_png
@@ -32,7 +32,7 @@ from ..optim.checkpoint import CheckpointFile
 from ..optim.driver import Driver, DriverSettings
 from ..optim.interface import Callback, GlobalVector, Record
 from ..optim.levels import level_config
-from ..optim.lift import lift, verification_model
+from ..optim.lift import check_liftable, lift, verification_model
 from ..optim.objective import ObjectiveValue
 from ..optim.problem import Evaluation, ReducedFunctional
 from ..optim.verification import Candidate, VerifyEvery, branch_changed, verify
@@ -88,10 +88,25 @@ class Settled:
                               self.hausdorff, self.size)
 
 
-def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
+def lift_config(cfg, overrides: list[str] | tuple[str, ...] = ()) -> Config | None:
+    """The config ``verify.lift`` names, with the run's ``--set material.*`` (the body it
+    lifts onto is of the same material), checked against the run before the run starts
+    (ConfigError); None without a lift."""
+    if cfg.verify.lift is None or not cfg.verify.enabled:
+        return None
+    solid = load(cfg.verify.lift, [item for item in overrides
+                                   if item.partition("=")[0].strip().startswith("material.")])
+    check_liftable(cfg, solid)
+    return solid
+
+
+def run_optimization(cfg, out: Path, resume: bool = False,
+                     lift_onto: Config | None = None) -> RunResult:
     """Optimise ``cfg``'s growth and write every output to ``out`` (module doc): the levels,
     the best design settled (re-solved, and grown from rest), the outputs, the verification
-    on the refined (and, for a section, the 3D) model, the summary and the closing lines."""
+    on the refined (and, for a section, the 3D) model, the summary and the closing lines.
+    ``lift_onto``: the 3D config of the lift (:func:`lift_config`), else ``verify.lift``'s
+    own."""
     timer = Timer()
     if not resume and MPI.COMM_WORLD.rank == 0 and (out / "verified.csv").exists():
         (out / "verified.csv").unlink()  # a new run's checks only
@@ -108,7 +123,7 @@ def run_optimization(cfg, out: Path, resume: bool = False) -> RunResult:
                 stability = assess_or_none(problem)
         with timer("io"):
             write_outputs(out, done, extra=[problem.mode] if stability else [])
-        verified = verify_best(cfg, done.model, settled, refined)
+        verified = verify_best(cfg, done.model, settled, refined, lift_onto)
     summary = dataclasses.replace(summarise(cfg, done, settled, verified, timer, resume),
                                   linear_solver=linear_use(done.model.state.newton.linear, tally),
                                   stability=stability)
@@ -286,8 +301,8 @@ def _designed(check: Candidate, design: np.ndarray, comm) -> bool:
     return comm.allreduce(bool(np.array_equal(check.design, design)), op=MPI.LAND)
 
 
-def verify_best(cfg, model: ForwardModel, settled: Settled,
-                refined: Verified | None = None) -> Verified | None:
+def verify_best(cfg, model: ForwardModel, settled: Settled, refined: Verified | None = None,
+                lift_onto: Config | None = None) -> Verified | None:
     """The best growth on the mesh refined ``verify.refine`` times, grown from rest there
     (``refined`` where it was already), and for a section lifted onto its 3D body
     (``verify.lift``); None with verify off."""
@@ -304,8 +319,8 @@ def verify_best(cfg, model: ForwardModel, settled: Settled,
                  cfg.verify.refine)
         verified = verify(model, cfg.verify.refine, changed)
     if cfg.verify.lift is not None:
-        solid = verification_model(load(cfg.verify.lift), cfg.verify.lift_refine,
-                                   cfg.verify.lift_degree)
+        onto = lift_onto if lift_onto is not None else load(cfg.verify.lift)
+        solid = verification_model(onto, cfg.verify.lift_refine, cfg.verify.lift_degree)
         log.info("lifting: the best growth onto the 3D body of %s (its mesh refined %d "
                  "time(s)), grown from rest", cfg.verify.lift, solid.mesh.refine)
         verified = dataclasses.replace(verified, lifted=lift(model, solid))

@@ -56,10 +56,11 @@ def check_material(cfg: Config, section: Section, errors: list[str]) -> Material
                           f"{own}; remove the key or choose another kind")
     else:
         volumetric = volumetric or "quadratic"
-    if m.kind != "mooney_rivlin" and section.stress_free:
+    if m.kind != "mooney_rivlin" and section.stress_free and not m.incompressible:
         errors.append(f"material.kind: plane stress holds the third stretch in closed form "
-                      f"for mooney_rivlin only, not {m.kind}; use model.reduction: "
-                      "plane_strain or model.dim: 3")
+                      f"for a compressible mooney_rivlin or any incompressible body, not a "
+                      f"compressible {m.kind}; set material.incompressible: true, or use "
+                      "model.reduction: plane_strain or model.dim: 3")
     formulation = _check_formulation(cfg, m, volumetric, errors)
     if m.kind == "ogden" and m.mu_p is not None and m.alpha_p is not None:
         _check_ogden(m.mu_p, m.alpha_p, errors)
@@ -97,10 +98,14 @@ def _with_preset(m: MaterialConfig, errors: list[str]) -> MaterialConfig:
 def _check_formulation(cfg: Config, m: MaterialConfig, volumetric: str | None,
                        errors: list[str]) -> str:
     """The formulation: mixed where asked or incompressible; what the mixed one needs."""
-    formulation = m.formulation or ("mixed" if m.incompressible else "displacement")
-    if m.incompressible and formulation != "mixed":
+    membrane = cfg.section.stress_free  # incompressible: J = 1 through the third stretch
+    formulation = m.formulation or ("mixed" if m.incompressible and not membrane
+                                    else "displacement")
+    if m.incompressible and formulation != "mixed" and not membrane:
         errors.append("material.formulation: an incompressible body needs the mixed "
-                      "formulation; remove the key or set it to mixed")
+                      "formulation (in 3D, plane strain and axial symmetry; plane stress "
+                      "holds J = 1 through the third stretch); remove the key or set it to "
+                      "mixed")
     if formulation != "mixed":
         return formulation
     if m.kind == "energy":
@@ -110,9 +115,10 @@ def _check_formulation(cfg: Config, m: MaterialConfig, volumetric: str | None,
     elif volumetric not in (None, "quadratic"):
         errors.append(f"material.volumetric: the mixed formulation enforces the quadratic "
                       f"kappa/2 (J - 1)^2, not {volumetric}; remove the key")
-    if cfg.section.stress_free:
+    if membrane:
         errors.append("material.formulation: plane stress holds the third stretch in closed "
-                      "form; a mixed body runs in 3D, plane strain or axial symmetry")
+                      "form (J = 1 through it where incompressible); a mixed body runs in 3D, "
+                      "plane strain or axial symmetry: remove the key")
     if cfg.model.degree != 2:
         errors.append("model.degree: the mixed formulation is Taylor-Hood, P2 displacements "
                       "with a P1 pressure; set model.degree: 2")

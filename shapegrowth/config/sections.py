@@ -186,11 +186,12 @@ class MaterialConfig:
         "displacement (the displacement alone) or mixed (displacement and pressure, "
         "Taylor-Hood: P2-P1 on simplices, Q2-Q1 on hexahedra; the volumetric part's kappa/2 "
         "(J - 1)^2 enforced through the pressure, so no locking as kappa/mu grows; "
-        "docs/MATERIALS.md); default: mixed where incompressible, else displacement", None,
+        "docs/MATERIALS.md); default: mixed where incompressible (in plane stress the third "
+        "stretch holds J = 1: displacement), else displacement", None,
         choices=("displacement", "mixed"))
     incompressible: bool = option(
-        "J of the elastic part held at 1 by the pressure (the mixed formulation's limit; no "
-        "kappa or lmbda)", False)
+        "J of the elastic part held at 1 by the pressure (the mixed formulation's limit; in "
+        "plane stress by the third stretch, any kind; no kappa or lmbda)", False)
     volumetric: str | None = option(
         "U(J) of neo_hookean, yeoh, gent and ogden: 'quadratic' kappa/2 (J - 1)^2, 'log' kappa/2 "
         "(log J)^2 or 'simo_taylor' kappa/4 (J^2 - 1 - 2 log J) (default quadratic)", None,

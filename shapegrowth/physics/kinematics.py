@@ -20,6 +20,11 @@ a^2 |A2|^2) - (mu1 + 2 mu2) ln(j2 a) + lambda/2 (j2 a - 1)^2, and dW0/da = 0 is,
 the quadratic c a^2 - lambda j2 a - (mu1 + 2 mu2) = 0 with c = mu1 + mu2 |A2|^2 +
 lambda j2^2, whose positive root is the stress-free stretch.  It enters F exactly, and its
 derivatives come from UFL like every other.
+
+An incompressible body in plane stress (``material.incompressible``, any energy): J of the
+elastic part is 1, so j2 a = 1 fixes the third stretch, a = 1 / j2, and the plane-stress
+condition is what determines the pressure (the incompressible membrane: no pressure unknown,
+no volumetric part, the displacement element free of locking).
 """
 
 from __future__ import annotations
@@ -41,8 +46,10 @@ def block(A2: Expr, third: Expr | float) -> Expr:
 class Kinematics:
     """F, C_g and the volume measure of one model (a ``Section``) on one mesh."""
 
-    def __init__(self, section: Section, mesh, material: Material):
+    def __init__(self, section: Section, mesh, material: Material,
+                 incompressible: bool = False):
         self.section, self.material = section, material
+        self.incompressible = incompressible
         self.x = ufl.SpatialCoordinate(mesh)
         self.solid = section.kind == "solid"
 
@@ -62,13 +69,17 @@ class Kinematics:
                               [0, 0, Cg[out, out]]])
 
     def third_stretch(self, F: Expr, u: Expr, Cg3: Expr) -> Expr | float:
-        """The stretch of the third direction: 1, the plane-stress root, or (R + u_R)/R."""
+        """The stretch of the third direction: 1, the plane-stress root (1 / j2 where
+        incompressible), or (R + u_R)/R."""
         if self.section.axisymmetric:
             return (self.x[0] + u[0]) / self.x[0]
         if not self.section.stress_free:
             return 1.0
+        if self.incompressible:
+            C2 = ufl.as_matrix([[Cg3[0, 0], Cg3[0, 1]], [Cg3[1, 0], Cg3[1, 1]]])
+            return ufl.sqrt(ufl.det(C2) * Cg3[2, 2]) / ufl.det(F)
         m = self.material
-        assert isinstance(m, MooneyRivlin)  # config.checks: plane stress is the paper's energy's
+        assert isinstance(m, MooneyRivlin)  # config.material_checks: else incompressible
         C2 = ufl.as_matrix([[Cg3[0, 0], Cg3[0, 1]], [Cg3[1, 0], Cg3[1, 1]]])
         det_c2 = ufl.det(C2)
         norm2 = ufl.tr(F.T * F * ufl.cofac(C2)) / det_c2  # |A2|^2

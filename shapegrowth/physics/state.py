@@ -116,7 +116,7 @@ class StateProblem:
             sub = self.V
         self.applied = growth.like()  # the growth that self.u is in equilibrium with
         self.material = material_of(cfg)
-        self.kinematics = Kinematics(cfg.section, mesh, self.material)
+        self.kinematics = Kinematics(cfg.section, mesh, self.material, self.incompressible)
         self.weight = self.kinematics.weight()  # 2 pi R for a body of revolution, else 1
         self.load_scale = compat.constant(mesh, 1.0)
 
