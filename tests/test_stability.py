@@ -387,3 +387,71 @@ def test_a_runs_state_from_rest_takes_the_branch_its_verification_takes(shared_t
     eps_c = 1.354e-3  # the path's own threshold, measured (test_a_bar_held_at_both_ends...)
     elastica = 2.0 / math.pi * math.sqrt(strain - eps_c)
     assert deflection == pytest.approx(elastica, rel=0.05)
+
+
+def _dense(A) -> np.ndarray:
+    """An assembled serial PETSc matrix as a dense array."""
+    import scipy.sparse
+
+    indptr, indices, values = A.getValuesCSR()
+    return scipy.sparse.csr_matrix((values, indices, indptr), shape=A.getSize()).toarray()
+
+
+@pytest.mark.parametrize("incompressible", [False, True], ids=["mixed", "incompressible"])
+def test_a_mixed_body_s_stability_is_its_constrained_tangent_s(incompressible, shared_tmp):
+    """The Euler bar past its threshold (1.25 of Euler's strain), mixed (Q2-Q1): the lowest
+    eigenvalues and the inertia of the pencil (A, diag(M, 0)) less the pressure DOFs are
+    those of the constrained tangent, from a dense elimination of the pressure: K + B^T
+    C^-1 B, or K on the null space of B where incompressible (C = 0)."""
+    import scipy.linalg
+    from mpi4py import MPI
+
+    if MPI.COMM_WORLD.size > 1:
+        pytest.skip("a dense serial elimination")
+    strain = 1.25 * EULER_STRAIN
+    cfg = sg.load_config(BEND, [
+        "mesh.cells=hex", f"mesh.cache_dir={shared_tmp}", "boundary.clamp=[x1_min, x1_max]",
+        f"growth.eigenvalues.initial=[{(1 + strain) ** 2}, 1, 1]", "model.degree=2",
+        "mesh.size=0.1",  # 10 along: 1 000 DOFs, a dense eigenproblem of a second
+        "material.incompressible=true" if incompressible else "material.formulation=mixed"])
+    model = sg.build_model(cfg)
+    assert model.state.solve().converged
+    problem = StabilityProblem(model.state, count=3)
+    found = problem.assess()
+    A, M = _dense(problem.K), _dense(problem.M)
+    W = model.state.W
+    u_dofs = np.asarray(W.sub(0).collapse()[1])
+    p_dofs = np.asarray(W.sub(1).collapse()[1])
+    assert problem.constraints == len(p_dofs)
+    free = u_dofs[np.diag(M)[u_dofs] > 0]  # the clamped rows: identity in K, zero in M
+    K, B, C = A[np.ix_(free, free)], A[np.ix_(p_dofs, free)], -A[np.ix_(p_dofs, p_dofs)]
+    Mf = M[np.ix_(free, free)]
+    if incompressible:
+        assert np.abs(C).max() == 0.0
+        Z = scipy.linalg.null_space(B)
+        values = scipy.linalg.eigh(Z.T @ K @ Z, Z.T @ Mf @ Z, eigvals_only=True,
+                                   subset_by_index=[0, 2])
+    else:
+        values = scipy.linalg.eigh(K + B.T @ np.linalg.solve(C, B), Mf, eigvals_only=True,
+                                   subset_by_index=[0, 2])
+    assert found.negative == int(np.sum(values < 0)) == 1  # values[2] > 0: all of them
+    assert found.lowest == pytest.approx(values, rel=1e-6)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("sets", [["material.formulation=mixed"],
+                                  ["material.incompressible=true"]],
+                         ids=["mixed", "incompressible"])
+def test_a_mixed_bar_held_at_both_ends_buckles_at_eulers_strain(sets, shared_tmp):
+    """The displacement's test above for the mixed element (Q2-Q1) and its incompressible
+    limit: stable at 0.8 of Euler's strain, one negative eigenvalue at 1.25, and the path
+    watched loses stability at Euler's strain, to 5 % (measured +2.5 % and +4.2 %: the
+    width's plate stiffening grows with Poisson's ratio, 0.3 and 0.5)."""
+    sets = [*sets, "model.degree=2"]
+    below = _solve(shared_tmp, 0.8 * EULER_STRAIN, *sets, name="-below")["stability"]
+    assert below["stable"] and below["lowest"][0] > 0 and below["lost_at"] is None
+    above = _solve(shared_tmp, 1.25 * EULER_STRAIN, *sets, name="-above")["stability"]
+    assert above["negative"] == 1 and above["lowest"][0] < 0 < above["lowest"][1]
+    assert above["kind"] == "bifurcation"
+    strain_lost = (1 + 1.25 * EULER_STRAIN) ** above["lost_at"] - 1.0
+    assert strain_lost == pytest.approx(EULER_STRAIN, rel=0.05), strain_lost

@@ -195,10 +195,10 @@ def solve_watched(state: StateProblem, branch: str = "follow"
     start (``state.carry``) where Newton's method finds no equilibrium is taken again by
     shifted Newton steps (:func:`settle_carried`)."""
     problem = StabilityProblem(state, shared_tangent=True)  # a solve from rest
-    if state.mixed:  # not assessed yet (StabilityProblem): the path is not watched
-        return state.solve(), None, problem
     watch = PathWatch(problem, switch=branch == "switch")
-    start = state.snapshot() if state.carried else None
+    # the shifted steps move the displacement alone: a mixed body's carried start is not
+    # settled by them (its Newton's report stands)
+    start = state.snapshot() if state.carried and not state.mixed else None
     report = state.solve(watch=watch)
     if start is not None and not report.converged:
         report = settle_carried(problem, start, report)

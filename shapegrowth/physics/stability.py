@@ -24,6 +24,16 @@ than its positive ones (measured: the unfiltered shell's lift, 111 negative, ``l
 below 0, moved down by doublings until negative ones are among those found, so that
 ``lowest`` (and the mode a branch switch follows) holds unstable modes where there are any.
 
+A mixed body (``material.formulation: mixed``, its unknown (u, p)) has the saddle-point
+tangent A = [[K, B^T], [B, -C]] (C = M_p / kappa, or 0 where incompressible); its stability
+is that of the constrained tangent, K + B^T C^-1 B (or K on the displacements that keep
+J = 1), the same energy's once the pressure is eliminated.  The pencil (A, diag(M, 0)) has
+exactly that operator's eigenvalues (the pressure's are infinite, never among the lowest),
+and by Haynsworth's inertia theorem (or, incompressible, the saddle point's, B of full rank)
+A - sigma diag(M, 0) has n_p more negative pivots than it has negative eigenvalues, n_p the
+number of pressure DOFs: ``negative`` is the inertia less n_p.  The mode is the eigenvector's
+displacement.  Tested against a dense elimination of the pressure (tests/test_stability.py).
+
 Along a growth path from rest, physics/paths.py watches it and, on request, leaves it for a
 stable branch.
 """
@@ -115,19 +125,20 @@ class StabilityProblem:
 
         self.state, self.count = state, count
         self.mode = dolfinx.fem.Function(state.V, name="stability_mode")
-        # a mixed body's tangent is a saddle point: its stability (the tangent restricted to
-        # the constraint) is not assessed yet, and assess says so
-        self.unassessed = "not assessed for a mixed body (material.formulation: mixed)" \
-            if state.mixed else None
-        if self.unassessed:
-            return
         # Where the state's factor is out of core (mumps_ooc: memory before time), so is this
         # one: in core it would set the solve's peak (scene 1's 149k DOFs on 2 ranks, from
         # rest: 3.93 GB with both in core, mumps_ldlt; 2.74 GB with the state's alone out of
         # core; 1.65 GB with both: docs/PERFORMANCE.md, "Out of core")
         out_of_core = state.newton.linear == "mumps_ooc"
         V = state.V
-        u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+        if state.mixed:  # the mass of the displacement alone: (A, diag(M, 0)) (module doc)
+            u, v = ufl.split(ufl.TrialFunction(state.W))[0], ufl.split(ufl.TestFunction(
+                state.W))[0]
+            dofmap = state.W.sub(1).collapse()[0].dofmap
+            self.constraints = dofmap.index_map.size_global * dofmap.index_map_bs
+        else:
+            u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+            self.constraints = 0  # the pressure DOFs' negative pivots (module doc)
         dx = ufl.Measure("dx", domain=V.mesh, metadata={"quadrature_degree":
                                                          2 * state.cfg.model.degree})
         mass = dolfinx.fem.form(ufl.inner(u, v) * state.weight * dx)
@@ -167,15 +178,13 @@ class StabilityProblem:
 
     def assess(self) -> Stability:
         """The stability of the state's equilibrium now; ``self.mode`` the lowest mode."""
-        if self.unassessed:
-            raise StabilityError(self.unassessed)
         # the freed pages of the state's last factorisations back to the system before this
         # factor is made, and this one's after it (heap.py: the peak at 21k DOFs out of core,
         # 2 ranks: 796 -> 559 MB)
         heap.trim()
         self.state.tangent_into(self.K)
         factor = self._solve(0.0)
-        negative = int(factor.getMumpsInfog(12))
+        negative = int(factor.getMumpsInfog(12)) - self.constraints
         pairs = self._pairs()
         # Negative eigenvalues that all lie beyond the ones nearest 0 (a state far past a
         # threshold; measured: the shell's lift, 4 negative, the nearest 0.020, 0.020, 0.044)
@@ -187,7 +196,7 @@ class StabilityProblem:
             if negative == 0 or _holds_negative(pairs):
                 break
             target = 2.0 * target if target else -2.0 * reach
-            below = int(self._solve(target).getMumpsInfog(12))  # eigenvalues below it
+            below = int(self._solve(target).getMumpsInfog(12)) - self.constraints
             pairs = self._pairs()
             log.debug("  stability: %d negative beyond the %d nearest 0; about %.4g: %s",
                       negative, self.count, target, [round(v, 6) for v, _ in pairs])
@@ -196,8 +205,10 @@ class StabilityProblem:
         self._order = [i for _, i in pairs]
         lowest = tuple(float(value) for value, _ in pairs)
         if pairs:
-            self.eps.getEigenpair(pairs[0][1], compat.petsc_vec(self.mode))
-            self.mode.x.scatter_forward()
+            vr = self.K.createVecRight()
+            self.eps.getEigenpair(pairs[0][1], vr)
+            self.state.displacement_of(vr, self.mode)
+            vr.destroy()
             scale = _global_max(self.mode, np.abs(self.mode.x.array).max(initial=0.0))
             if scale > 0:
                 self.mode.x.array[:] /= scale
@@ -207,8 +218,6 @@ class StabilityProblem:
     def release_factor(self) -> None:
         """Free the eigensolve's factorisation (the next :meth:`assess` factors anew) and
         the freed pages back to the system."""
-        if self.unassessed:
-            return
         self.eps.getST().getKSP().reset()
         heap.trim()
 
@@ -247,6 +256,8 @@ class StabilityProblem:
         """The last :meth:`assess`'s lowest eigenpairs: their eigenvalues, and their modes
         into ``modes`` (as many as both have), normalised in the mass (phi^T M phi = 1), the
         normalisation under which d(omega^2) = phi^T dK phi (collective)."""
+        if self.state.mixed:  # config.material_checks refuses what would ask
+            raise StabilityError("the modes' normalisation of a mixed body is not written")
         values = []
         vr, mv = self.K.createVecRight(), self.K.createVecRight()
         for i, f in zip(self._order, modes):

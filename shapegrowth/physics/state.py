@@ -114,6 +114,7 @@ class StateProblem:
             self.W, self.w = self.V, self.u
             self._disp, self._pressure = self.u, None
             sub = self.V
+        self._scratch: dolfinx.fem.Function | None = None  # a vector of W (displacement_of)
         self.applied = growth.like()  # the growth that self.u is in equilibrium with
         self.material = material_of(cfg)
         self.kinematics = Kinematics(cfg.section, mesh, self.material, self.incompressible)
@@ -166,6 +167,19 @@ class StateProblem:
         target = vec_w.getArray()
         target[self._u_dofs[:owned]] = vec_u.getArray(readonly=True)[:owned]
         vec_w.setArray(target)
+
+    def displacement_of(self, vec_w: PETSc.Vec, target: dolfinx.fem.Function) -> None:
+        """The displacement's part of a vector of the unknown's DOFs (e.g. an eigenvector of
+        the tangent) into ``target``, a function on ``V``, ghosts updated (collective)."""
+        if not self.mixed:
+            vec_w.copy(compat.petsc_vec(target))
+            target.x.scatter_forward()
+            return
+        if self._scratch is None:
+            self._scratch = dolfinx.fem.Function(self.W)
+        vec_w.copy(compat.petsc_vec(self._scratch))
+        self._scratch.x.scatter_forward()
+        target.x.array[:] = self._scratch.x.array[self._u_dofs]
 
     # ---- the model -------------------------------------------------------------------------
     def deformation_gradient(self) -> ufl.core.expr.Expr:
