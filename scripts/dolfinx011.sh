@@ -51,14 +51,22 @@ if [ "$(cat "$ROOT$VENV/.shapegrowth-ready" 2>/dev/null)" != "$WANT" ]; then
 fi
 
 TESTS=${SHAPEGROWTH_DOLFINX011_TESTS:-tests}
+# The whole suite's MPI tests in two processes: in one, on dolfinx 0.11 and Debian 13's OpenMPI,
+# the 180th test's ranks died without a word (measured: 180 passed there; 187 died at the
+# 180th, each file alone passing), so no process there runs more than about a hundred
+MPI_PARTS=("$TESTS")
+[ "$TESTS" = tests ] && MPI_PARTS=("tests/test_[a-m]*.py" "tests/test_[n-z]*.py")
+MPI_RUNS=""
+for part in "${MPI_PARTS[@]}"; do
+  MPI_RUNS+=" && { mpiexec -n 2 scripts/rank0-output.sh python -m pytest -q -p no:cacheprovider \
+    -m 'mpi and not slow and not mpi_slow' $part; status=\$?; [ \$status = 0 ] || [ \$status = 5 ]; }"
+done
 start=$(date +%s)
 in_root "cd $SRC && pip install -q --no-deps --no-build-isolation -e . \
   && python -c 'import dolfinx, ufl, basix; from petsc4py import PETSc; \
 print(\"dolfinx\", dolfinx.__version__, \"ufl\", ufl.__version__, \"basix\", basix.__version__, \
 \"PETSc\", PETSc.Sys.getVersion())' \
   && mypy \
-  && python -m pytest -q -p no:cacheprovider -m 'not slow' $TESTS \
-  && { mpiexec -n 2 scripts/rank0-output.sh python -m pytest -q -p no:cacheprovider \
-       -m 'mpi and not slow and not mpi_slow' $TESTS; status=\$?; [ \$status = 0 ] || [ \$status = 5 ]; }"
+  && python -m pytest -q -p no:cacheprovider -m 'not slow' $TESTS $MPI_RUNS"
 # (pytest's 5: no MPI test among the files asked for)
 echo "test-dolfinx011: passed on dolfinx 0.11 in $(( $(date +%s) - start )) s"
