@@ -315,8 +315,20 @@ class TargetConfig:
                                             None)
     mesh: str | None = option("target body as a mesh file (gmsh .msh)", None)
     surface: str | None = option(
-        "target body as a closed surface file (STL, OBJ, PLY or gmsh .msh triangles), filled "
-        "with tetrahedra by gmsh; open surfaces are refused (3D models)", None)
+        "target as a surface file (STL, OBJ, PLY, OFF or gmsh .msh triangles), repaired where "
+        "that is safe (duplicate vertices merged; triangles without area, given twice or "
+        "unreferenced dropped; turned consistently), the repair said in one line: compared "
+        "with the body's volume it must be closed and is filled with tetrahedra by gmsh; "
+        "compared with a face (objective.compare) it may be open, with non-manifold edges "
+        "(3D models)", None)
+    crop: str | None = option(
+        "surface targets: keep only the triangles whose centre satisfies this condition over "
+        "the file's own coordinates x1, x2, x3 (before target.transform; e.g. 'x3 > 140' for a "
+        "scan's top), the rest dropped before the repair", None)
+    pieces: str = option(
+        "surface targets: of a file's disconnected pieces keep the 'largest' by area (a scan's "
+        "stray fragments dropped, said in the repair's line) or 'all'", "largest",
+        choices=("largest", "all"))
     transform: TransformConfig = option(
         "placement of a mesh or surface target's file (units, rotation, position)",
         TransformConfig())

@@ -7,7 +7,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..errors import ExpressionError
+from .expressions import COORDINATES
 from .sections import FACE_ALIASES
+from .selectors import Condition
 
 if TYPE_CHECKING:
     from .reduction import Section
@@ -15,7 +18,7 @@ if TYPE_CHECKING:
     from .sections import TargetConfig
 
 # the surface files target.surface may name (read by shape/surface_formats.py)
-SURFACE_FORMATS = (".stl", ".obj", ".ply", ".msh")
+SURFACE_FORMATS = (".stl", ".obj", ".ply", ".off", ".msh")
 # the faces of a body that a section model does not keep (a box's X1-X3 section)
 OFF_SECTION = {"box": ("x2_min", "x2_max")}
 
@@ -66,10 +69,21 @@ def check_target(cfg: Config, errors: list[str]) -> None:
             errors.append(f"target.surface: file '{target.surface}' not found")
         elif Path(target.surface).suffix.lower() not in SURFACE_FORMATS:
             errors.append(f"target.surface: '{target.surface}' has an unknown format; give "
-                          ".stl, .obj, .ply or .msh")
+                          ".stl, .obj, .ply, .off or .msh")
         if cfg.dim != 3 and not cfg.section.reduced:
             errors.append("target.surface: a surface bounds a 3D solid; use model.dim: 3 (a 2D "
                           "model takes target.map or a 2D target.mesh)")
+    if target.crop is not None:
+        if target.surface is None:
+            errors.append("target.crop: crops a target.surface; give one, or remove the key")
+        else:
+            try:
+                Condition(target.crop, COORDINATES)
+            except ExpressionError as exc:
+                errors.append(f"target.crop: '{target.crop}': {exc}")
+    if target.pieces != "largest" and target.surface is None:
+        errors.append("target.pieces: chooses the pieces of a target.surface; give one, or "
+                      "remove the key")
     _check_transform(target, errors)
 
 

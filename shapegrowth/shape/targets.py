@@ -10,8 +10,9 @@
 * ``target: {mesh: file}``: the quadrature points of the target mesh's cells with
   their physical weights (gmsh .msh through gmsh; other formats through meshio
   when it is installed).  Each rank takes a contiguous share of the cells.
-* ``target: {surface: file}``: a closed surface (STL, OBJ, PLY, .msh triangles) filled
-  with tetrahedra by gmsh (surface_files.py), then sampled like a mesh.
+* ``target: {surface: file}``: a surface (STL, OBJ, PLY, OFF, .msh triangles), repaired
+  where that is safe (surface_repair.py); closed, filled with tetrahedra by gmsh
+  (surface_files.py) and sampled like a mesh, or sampled as a surface against a face.
 * ``target.transform`` places a mesh or surface file (placement.py): scaled, rotated,
   translated, and optionally aligned by principal axes onto the body's reference.
 """
@@ -50,7 +51,7 @@ def target_cloud(cfg: Config, cloud: QuadratureCloud | FacetCloud,
                                "a target.surface"])
         return surface_target(cfg, cloud, comm)[0]
     if target.surface is not None:
-        nodes, cells = filled_surface(Path(target.surface))
+        nodes, cells = filled_surface(Path(target.surface), target.pieces, target.crop)
     else:
         nodes, cells = _read_simplices(Path(resolved(target.mesh)), cfg.dim)
     return file_cloud(nodes, cells, cloud, target.transform, comm)
@@ -78,7 +79,8 @@ def surface_target(cfg: Config, cloud: FacetCloud,
     """target.surface against a face: its cloud (this rank's share), its nodes as
     target.transform places them against ``cloud`` and its triangles (whole, every rank)."""
     target = resolved(cfg.target)
-    nodes, cells = surface_triangles(Path(resolved(target.surface)))
+    nodes, cells = surface_triangles(Path(resolved(target.surface)), target.pieces,
+                                     target.crop)
     nodes = _placed(nodes, cells, cloud, target.transform, comm)
     return _share(nodes, cells, cloud.degree, comm), nodes, cells
 
