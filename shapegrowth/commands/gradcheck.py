@@ -35,7 +35,8 @@ def checked_config(cfg: Config) -> Config:
 def gradcheck(cfg: Config, out: Path, seed: int = 0, eps0: float = 1e-2, steps: int = 4) -> dict:
     """Taylor test of the config's reduced functional in a smooth random direction:
     eigenvalues perturbed by up to ~20 % of their value, angles by ~0.3 rad; rho_H's pair
-    sums in float64 (:func:`checked_config`)."""
+    sums in float64 (:func:`checked_config`).  With growth.levels, at every sharpness of
+    growth.sharpness (``sharpness``: each one's rates; ``rates``: the worst's)."""
     cfg = checked_config(cfg)
     model = ForwardModel.build(cfg)
     rf = ReducedFunctional(model)
@@ -47,10 +48,24 @@ def gradcheck(cfg: Config, out: Path, seed: int = 0, eps0: float = 1e-2, steps: 
     h = np.empty_like(m0)
     h[:n_eig] = 0.2 * np.abs(m0[:n_eig]) * smooth_direction(coords[:n_eig], seed, length)
     h[n_eig:] = 0.3 * smooth_direction(coords[n_eig:], seed + 1, length)
-    result = taylor_test(rf, rf.gradient, m0, h, eps0=eps0, steps=steps, dot=rf.dot)
-    report = {"rates": result.rates, "min_rate": result.min_rate, "eps": result.eps,
-              "residuals": result.residuals, "direction_seed": seed,
-              "objective": rf(m0), "design_dofs": rf.comm.allreduce(rf.size),
+    # growth.levels: the projection at each sharpness of the schedule (at the crisp design's
+    # beta = inf J is piecewise constant: nothing to check)
+    betas = cfg.growth.sharpness if cfg.growth.levels is not None else (None,)
+    results, values = [], []
+    for beta in betas:
+        if beta is not None:
+            rf.set_sharpness(beta)
+        results.append(taylor_test(rf, rf.gradient, m0, h, eps0=eps0, steps=steps, dot=rf.dot))
+        values.append(rf(m0))
+    worst = min(results, key=lambda r: r.min_rate)
+    stages = [{"sharpness": beta, "rates": r.rates, "min_rate": r.min_rate, "eps": r.eps,
+               "residuals": r.residuals, "objective": value}
+              for beta, r, value in zip(betas, results, values)]
+    report = {"rates": worst.rates, "min_rate": worst.min_rate, "eps": worst.eps,
+              "residuals": worst.residuals, "direction_seed": seed,
+              "objective": values[0], "design_dofs": rf.comm.allreduce(rf.size),
               "fields": rf.names, "mpi_size": rf.comm.size, "precision": "float64"}
+    if cfg.growth.levels is not None:
+        report["sharpness"] = stages
     io.write_json(out / "gradcheck.json", report)
     return report

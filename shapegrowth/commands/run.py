@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -216,6 +217,7 @@ def settle(done: Optimised) -> Settled:
     """The state left at the best design (for the fields and the final numbers), and that
     growth grown from rest (what a body grown so takes)."""
     rf, failed = done.rf, done.status.is_failure
+    rf.set_sharpness(math.inf)  # growth.levels: the crisp design (physics/projection.py)
     if failed:
         rf.restart_from_rest()  # not a warm start from the state that failed
     final = None

@@ -85,13 +85,22 @@ class DriverSettings:
     ftol_rel: float = 0.0
     xtol_rel: float = 0.0
     ftol_window: int = 20
+    sharpness: tuple[float, ...] = ()  # growth.levels' projection, one stage each
 
     @classmethod
     def from_config(cls, cfg: Config) -> DriverSettings:
         o = cfg.optimizer
         return cls(cfg.name, o.algorithm, max(o.max_iterations, 1),
                    tuple(cfg.objective.hausdorff.alphas), o.move_limit, o.restart_every,
-                   o.ftol_rel, o.xtol_rel, o.ftol_window)
+                   o.ftol_rel, o.xtol_rel, o.ftol_window,
+                   tuple(cfg.growth.sharpness) if cfg.growth.levels is not None else ())
+
+    def stages(self) -> list[tuple[float, float | None]]:
+        """(alpha, sharpness) per stage: the alpha schedule at the first sharpness, then each
+        further sharpness at the last alpha (sharpness None without growth.levels)."""
+        first = self.sharpness[0] if self.sharpness else None
+        return [(a, first) for a in self.alphas] + \
+            [(self.alphas[-1], b) for b in self.sharpness[1:]]
 
 
 class Driver:
@@ -258,15 +267,22 @@ class Driver:
         log.info("%5s %13s %13s %11s %10s %6s %9s", "iter", "J", "rho_H", "Hausdorff", "|dJ/dm|",
                  "Newton", "seconds")
         code = nlopt.MAXEVAL_REACHED
-        for stage, alpha in enumerate(alphas):
+        stages = s.stages()
+        for stage, (alpha, beta) in enumerate(stages):
+            if beta is not None and (stage == 0 or beta != stages[stage - 1][1]):
+                self._outside(self.problem.set_sharpness, beta)
+                if stage > 0:
+                    log.info("sharpness %g (stage %d of %d)", beta, stage + 1, len(stages))
             if stage > 0:
-                # J changes with alpha: a design is best only against the stage's own J
+                # J changes with alpha or the sharpness: a design is best only against the
+                # stage's own J
                 self._outside(self.problem.set_alpha, alpha)
                 self.best = None
-                log.info("alpha %g (stage %d of %d)", alpha, stage + 1, len(alphas))
+                if alpha != stages[stage - 1][0]:
+                    log.info("alpha %g (stage %d of %d)", alpha, stage + 1, len(stages))
             # each stage may use its share of what is left; the last one everything
             left = max_evals - len(self.history)
-            end = len(self.history) + left // (len(alphas) - stage)
+            end = len(self.history) + left // (len(stages) - stage)
             x, code = self._stage(x, lo, hi, end)
             if self.failure or code == nlopt.FORCED_STOP or len(self.history) >= max_evals:
                 break

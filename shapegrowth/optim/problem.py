@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 from dataclasses import dataclass
 
 import dolfinx.fem
@@ -36,6 +37,7 @@ from ..errors import StateSolveError
 from ..physics.filters import HelmholtzFilter
 from ..physics.model import ForwardModel
 from ..physics.paths import solve_watched
+from ..physics.projection import LevelProjection
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
 from ..physics.walls import WallMean
@@ -67,7 +69,16 @@ class ReducedFunctional:
         eig = cfg.growth.eigenvalues
         design = resolved(eig.design)
         self.targets = [growth.eigenvalues[i - 1] for i in design] + list(growth.angles)
-        self.bounds_per_field = [eig.bounds] * len(design) + \
+        # growth.levels: the designed eigenvalues projected onto the levels after the filter
+        # (physics/projection.py), at the stage's sharpness; crisp (beta = inf) until a
+        # driver's stage sets one, so a settled or verified design is the crisp one
+        levels = cfg.growth.levels
+        self.projection = LevelProjection(tuple(levels)) if levels is not None else None
+        self.sharpness = math.inf
+        self.n_projected = len(design) if levels is not None else 0
+        self._filtered: list[np.ndarray] = []
+        bounds = (levels[0], levels[-1]) if levels is not None else eig.bounds
+        self.bounds_per_field = [bounds] * len(design) + \
             [tuple(b) for b in resolved(cfg.growth.angles.bounds)[:len(growth.angles)]]
         self.names = [f"lambda_{i}" for i in design] + \
             [f"theta_{k + 1}" for k in range(len(growth.angles))]
@@ -116,6 +127,32 @@ class ReducedFunctional:
                 if self.wall is not None:
                     field.x.array[:self.n_owned] = self.wall.apply(field.x.array)
                     field.x.scatter_forward()
+            self._project()
+
+    def _project(self) -> None:
+        """growth.levels: the filtered eigenvalues (kept for the chain rule) projected at the
+        current sharpness; every local entry, ghosts included, is nodal."""
+        if self.projection is None:
+            return
+        self._filtered = [f.x.array.copy() for f in self.targets[:self.n_projected]]
+        for field, x in zip(self.targets, self._filtered):
+            field.x.array[:] = self.projection.value(x, self.sharpness)
+
+    def set_sharpness(self, beta: float) -> None:
+        """One stage of growth.sharpness (math.inf: the crisp design): the growth changes with
+        it, so the state is solved again (from the last equilibrium) at the next evaluation."""
+        if self.projection is None or beta == self.sharpness:
+            return
+        self.sharpness = beta
+        if self._filtered:
+            self._project()
+        self._forget()
+
+    def material_index(self) -> list[np.ndarray]:
+        """growth.levels: each projected eigenvalue's material (its level's index) at the
+        growth's local nodes, of the crisp design of the current filtered fields."""
+        assert self.projection is not None
+        return [self.projection.index(x) for x in self._filtered]
 
     # ---- J and dJ/dm -----------------------------------------------------------------------
     def evaluate(self, m: np.ndarray, gradient: bool = True) -> Evaluation:
@@ -269,11 +306,17 @@ class ReducedFunctional:
                     s.axpy(1.0, e)
         parts = []
         with self.timer("filter", "filter_backward"):
-            for i in self._indices:
+            for k, i in enumerate(self._indices):
                 dual = sens[i]
-                if self.wall is not None:  # P is symmetric: dJ/df P
+                if k < self.n_projected:  # dP/dx, nodal
+                    assert self.projection is not None
                     dual = sens[i].copy()
-                    dual.array[:self.n_owned] = self.wall.apply(sens[i].array)
+                    dual.array[:self.n_owned] *= self.projection.slope(
+                        self._filtered[k][:self.n_owned], self.sharpness)
+                if self.wall is not None:  # P is symmetric: dJ/df P
+                    walled = dual.copy()
+                    walled.array[:self.n_owned] = self.wall.apply(dual.array)
+                    dual = walled
                 out = sens[i].duplicate()
                 self.filter.backward(dual, out)
                 parts.append(out.array[:self.n_owned].copy())
