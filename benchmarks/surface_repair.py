@@ -48,7 +48,8 @@ def sheet(n_target: int) -> tuple[np.ndarray, np.ndarray]:
 
     k = int(np.sqrt(n_target / 2))
     x, y = np.meshgrid(np.linspace(0, 300, k + 1), np.linspace(0, 300, k + 1), indexing="ij")
-    p = np.column_stack([x.ravel(), y.ravel(), 10 * np.sin(x.ravel() / 30) * np.cos(y.ravel() / 40)])
+    z = 10 * np.sin(x.ravel() / 30) * np.cos(y.ravel() / 40)
+    p = np.column_stack([x.ravel(), y.ravel(), z])
     c = ((k + 1) * np.arange(k)[:, None] + np.arange(k)[None]).ravel()
     t = np.concatenate([np.column_stack([c, c + k + 1, c + k + 2]),
                         np.column_stack([c, c + k + 2, c + 1])])
@@ -61,7 +62,8 @@ def sheet(n_target: int) -> tuple[np.ndarray, np.ndarray]:
     stray = [p]
     for s in range(50):  # small pieces far off
         base = len(np.vstack(stray))
-        stray.append(np.array([[400.0 + 3 * s, 0, 0], [401.0 + 3 * s, 0, 0], [400.0 + 3 * s, 1, 0]]))
+        x0 = 400.0 + 3 * s
+        stray.append(np.array([[x0, 0, 0], [x0 + 1, 0, 0], [x0, 1, 0]]))
         extra.append(np.array([[base, base + 1, base + 2]]))
     p = np.vstack(stray)
     inner = t[len(t) // 3]
@@ -90,8 +92,9 @@ def main() -> None:
     print(f"{len(triangles)} triangles, binary STL {size:.0f} MiB")
     print(f"read (trimesh):  {runs['read']['read_s']:.2f} s, peak RSS "
           f"{runs['read']['rss_mb']:.0f} MB")
-    print(f"read + repair:   {runs['repair']['read_s'] + runs['repair']['repair_s']:.2f} s "
-          f"(repair {runs['repair']['repair_s']:.2f} s), peak RSS {runs['repair']['rss_mb']:.0f} MB "
+    both = runs["repair"]
+    print(f"read + repair:   {both['read_s'] + both['repair_s']:.2f} s "
+          f"(repair {both['repair_s']:.2f} s), peak RSS {both['rss_mb']:.0f} MB "
           f"(the interpreter with numpy and trimesh {runs['repair']['rss_before_mb']:.0f} MB)")
     print(f"the repair's line: {runs['repair']['line']}")
 
