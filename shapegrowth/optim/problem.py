@@ -127,14 +127,14 @@ class ReducedFunctional:
                 if self.wall is not None:
                     field.x.array[:self.n_owned] = self.wall.apply(field.x.array)
                     field.x.scatter_forward()
-            self._project()
+            if self.projection is not None:  # kept for the chain rule and a new sharpness
+                self._filtered = [f.x.array.copy() for f in self.targets[:self.n_projected]]
+                self._project()
 
     def _project(self) -> None:
-        """growth.levels: the filtered eigenvalues (kept for the chain rule) projected at the
-        current sharpness; every local entry, ghosts included, is nodal."""
-        if self.projection is None:
-            return
-        self._filtered = [f.x.array.copy() for f in self.targets[:self.n_projected]]
+        """growth.levels: the kept filtered eigenvalues projected at the current sharpness;
+        every local entry, ghosts included, is nodal."""
+        assert self.projection is not None
         for field, x in zip(self.targets, self._filtered):
             field.x.array[:] = self.projection.value(x, self.sharpness)
 
@@ -144,15 +144,8 @@ class ReducedFunctional:
         if self.projection is None or beta == self.sharpness:
             return
         self.sharpness = beta
-        if self._filtered:
-            self._project()
+        self._project()
         self._forget()
-
-    def material_index(self) -> list[np.ndarray]:
-        """growth.levels: each projected eigenvalue's material (its level's index) at the
-        growth's local nodes, of the crisp design of the current filtered fields."""
-        assert self.projection is not None
-        return [self.projection.index(x) for x in self._filtered]
 
     # ---- J and dJ/dm -----------------------------------------------------------------------
     def evaluate(self, m: np.ndarray, gradient: bool = True) -> Evaluation:

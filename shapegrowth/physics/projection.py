@@ -41,7 +41,7 @@ class LevelProjection:
     def value(self, x: np.ndarray, beta: float) -> np.ndarray:
         t, a, width, _ = self._split(np.asarray(x, dtype=float))
         if math.isinf(beta):  # the levels themselves, exactly
-            return self._crisp(t, a)
+            return np.asarray(self.levels, dtype=float)[self.index(x)]
         half = math.tanh(beta / 2)
         return a + width * (half + np.tanh(beta * (t - 0.5))) / (2 * half)
 
@@ -52,11 +52,6 @@ class LevelProjection:
             return np.zeros_like(t)
         sech2 = 1.0 - np.tanh(beta * (t - 0.5)) ** 2
         return np.where(inside, beta * sech2 / (2 * math.tanh(beta / 2)), 0.0)
-
-    def _crisp(self, t: np.ndarray, a: np.ndarray) -> np.ndarray:
-        g = np.asarray(self.levels, dtype=float)
-        k = np.searchsorted(g, a)
-        return g[np.minimum(k + (t >= 0.5), len(g) - 1)]
 
     def index(self, x: np.ndarray) -> np.ndarray:
         """The crisp design's material: the index of the level each value is sent to."""

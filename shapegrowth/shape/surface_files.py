@@ -59,10 +59,15 @@ def loaded(path: Path, pieces: str = "largest",
            crop: str | None = None) -> tuple[TriangleSurface, Repair]:
     """A surface file read, cropped and repaired (:mod:`.surface_repair`), and what the
     repair did (said once per file in one line of the log); cached per file."""
+    return _repaired(*_file_key(path), pieces, crop)
+
+
+def _file_key(path: Path) -> tuple[str, int, int]:
+    """A file's cache key: its resolved path, modification time and size."""
     if not path.is_file():
         raise fail(path, "not found")
     stat = path.stat()
-    return _repaired(str(path.resolve()), stat.st_mtime_ns, stat.st_size, pieces, crop)
+    return str(path.resolve()), stat.st_mtime_ns, stat.st_size
 
 
 def surface_triangles(path: Path, pieces: str = "largest",
@@ -111,10 +116,7 @@ def filled_surface(path: Path, pieces: str = "largest",
                    crop: str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(nodes, tetrahedra) of the solid a closed surface file bounds, repaired (cached per
     file)."""
-    if not path.is_file():
-        raise fail(path, "not found")
-    stat = path.stat()
-    return _filled(str(path.resolve()), stat.st_mtime_ns, stat.st_size, pieces, crop)
+    return _filled(*_file_key(path), pieces, crop)
 
 
 def fill(surface: TriangleSurface, path: Path) -> tuple[np.ndarray, np.ndarray]:
