@@ -53,7 +53,7 @@ _API = {
     "evaluate_at": ("shapegrowth.compat", "evaluate_at_points"),
     "surface": ("shapegrowth.io.plotting", "surface"),
     "draw": ("shapegrowth.io.plotting", "draw"),
-    "read_surface": ("shapegrowth.shape.surface_formats", "read_surface"),
+    "read_surface": ("shapegrowth.shape.surface_repair", "read_surface"),
     "write_stl": ("shapegrowth.shape.surface_formats", "write_stl"),
     "RigidFit": ("shapegrowth.shape.rigid_fit", "RigidFit"),
 }
@@ -118,7 +118,8 @@ if TYPE_CHECKING:
     from .physics.state import StateProblem
     from .shape.hausdorff import PointCloud, SmoothHausdorff
     from .shape.rigid_fit import RigidFit
-    from .shape.surface_formats import read_surface, write_stl
+    from .shape.surface_formats import write_stl
+    from .shape.surface_repair import read_surface
     from .status import Outcome, Status
 
 

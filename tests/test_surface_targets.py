@@ -20,7 +20,8 @@ from shapegrowth.config import ConfigError, TransformConfig, load
 from shapegrowth.shape.clouds import QuadratureCloud
 from shapegrowth.shape.placement import Moments, principal_alignment, rotation_matrix
 from shapegrowth.shape.surface_files import check_closed, filled_surface
-from shapegrowth.shape.surface_formats import TriangleSurface, read_surface, write_stl
+from shapegrowth.shape.surface_formats import TriangleSurface, write_stl
+from shapegrowth.shape.surface_repair import read_surface
 from shapegrowth.shape.targets import file_cloud, simplex_cloud, target_cloud
 
 CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"

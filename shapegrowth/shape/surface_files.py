@@ -29,7 +29,7 @@ from ..config import ConfigError
 from ..config.expressions import COORDINATES, coordinate_env
 from ..config.selectors import Condition
 from .surface_formats import TriangleSurface, fail, read_triangles
-from .surface_repair import Repair, edge_counts, repaired
+from .surface_repair import Repair, edge_counts, repaired, turned_consistently
 
 log = logging.getLogger(__name__)
 
@@ -92,9 +92,10 @@ def check_closed(surface: TriangleSurface, path: Path) -> None:
 
 
 def oriented(surface: TriangleSurface, path: Path) -> TriangleSurface:
-    """The closed ``surface``, its triangles turned consistently by the repair, turned
-    outward (positive enclosed volume); refused where no consistent turning exists."""
-    t = surface.triangles
+    """The closed ``surface`` with its triangles turned consistently (neighbours cross
+    their shared edge in opposite directions) and outward (positive enclosed volume):
+    files often mix orientations, and the enclosed volume needs one."""
+    t = turned_consistently(surface.triangles)[0]
     directed = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
     if len(np.unique(directed, axis=0)) != len(directed):  # an edge crossed twice one way
         raise fail(path, "is not orientable (a Moebius-like surface bounds no solid)")

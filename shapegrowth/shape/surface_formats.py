@@ -42,15 +42,6 @@ def fail(path: Path, what: str) -> ConfigError:
     return ConfigError([f"{KEY}: '{path}' {what}"])
 
 
-def read_surface(path: Path, pieces: str = "all") -> TriangleSurface:
-    """The surface of a file, repaired where that is safe (:mod:`.surface_repair`: duplicate
-    vertices merged, triangles without area or given twice dropped, turned consistently;
-    ``pieces="largest"`` keeps the largest piece only)."""
-    from .surface_repair import repaired
-
-    return repaired(*read_triangles(path), pieces=pieces)[0]
-
-
 def read_triangles(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """The points (n, 3) and triangles (m, 3) of a surface file as it gives them: STL, OBJ,
     PLY and OFF read by trimesh (polygons split into triangles), gmsh .msh by gmsh."""

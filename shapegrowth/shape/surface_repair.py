@@ -17,10 +17,11 @@ further in :mod:`.surface_files`); holes stay open (filling one invents a surfac
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from .surface_formats import TriangleSurface
+from .surface_formats import TriangleSurface, read_triangles
 
 PIECES = ("largest", "all")
 # A triangle whose area is below this fraction of the largest one has no normal worth the
@@ -72,6 +73,12 @@ def _counted(n: int, what: str) -> str:
     return f"{n} " + " ".join(words)
 
 
+def read_surface(path: Path, pieces: str = "all") -> TriangleSurface:
+    """The surface of a file, repaired as the module says (``pieces="largest"`` keeps the
+    largest piece only)."""
+    return repaired(*read_triangles(path), pieces=pieces)[0]
+
+
 def repaired(points: np.ndarray, triangles: np.ndarray, pieces: str = "largest",
              keep: np.ndarray | None = None) -> tuple[TriangleSurface, Repair]:
     """The surface of ``points`` (n, 3) and ``triangles`` (m, 3) as a file gives them,
@@ -120,7 +127,7 @@ def repaired(points: np.ndarray, triangles: np.ndarray, pieces: str = "largest",
     renumber = np.zeros(len(points), dtype=np.int64)
     renumber[used] = np.arange(len(used))
     points, t = points[used], renumber[t]
-    t, turned = _turned(t)
+    t, turned = turned_consistently(t)
     counts = edge_counts(t)
     return TriangleSurface(points, t), Repair(
         cropped_triangles=cropped, merged_vertices=int(merged), flat_triangles=int(np.sum(flat)),
@@ -162,7 +169,7 @@ def _pieces(t: np.ndarray) -> tuple[np.ndarray, int]:
     return label, int(count)
 
 
-def _turned(t: np.ndarray) -> tuple[np.ndarray, int]:
+def turned_consistently(t: np.ndarray) -> tuple[np.ndarray, int]:
     """The triangles turned consistently within each piece, across the edges shared by
     exactly two (a breadth-first tree from each piece's first triangle, which keeps its
     orientation), and how many were turned.  Where the surface is not orientable some pair
