@@ -87,7 +87,7 @@ def repaired(points: np.ndarray, triangles: np.ndarray, pieces: str = "largest",
     if pieces not in PIECES:
         raise ValueError(f"pieces: one of {PIECES}")
     points = np.asarray(points, dtype=float)
-    t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    t: np.ndarray = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     cropped = 0
     if keep is not None:
         cropped = int(len(t) - np.count_nonzero(keep))
@@ -201,7 +201,7 @@ def turned_consistently(t: np.ndarray) -> tuple[np.ndarray, int]:
     _, parent = breadth_first_order(graph, m, directed=False)
     parent[m] = m
     # turn[c] = turn[parent] ^ (the tree edge says so), by pointer jumping up the tree
-    turn = np.zeros(m + 1, dtype=bool)
+    turn: np.ndarray = np.zeros(m + 1, dtype=bool)
     child = np.arange(m)
     turn[:m] = np.asarray(graph[child, parent[:m]]).reshape(-1) == 2
     up = parent
