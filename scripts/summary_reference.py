@@ -114,6 +114,8 @@ MEANING: dict[str, str] = {
     "linear_solver.state_fallbacks": "of them, state solves",
     "linear_solver.adjoint_fallbacks": "of them, adjoint solves",
     "linear_solver.reasons": "PETSc's reasons of the first fallbacks",
+    "fabrication": "`growth.levels`: `fabrication/fabrication.json`, the crisp design's "
+                   "materials (null without levels)",
 }
 # records written under another key than their field's name
 _PREFIX = {Lifted: "lifted", Stability: "stability", LinearSolverUse: "linear_solver"}
@@ -134,7 +136,7 @@ def _record(hint: object) -> type | None:
 # keys a record's to_json adds beside its fields (a property written out)
 _COMPUTED = {Stability: {"lowest": ["stable"]}}
 # who writes a key and the keys of its record, where not every command does
-_WRITER = {"verified": "run", "lifted": "run, lift"}
+_WRITER = {"verified": "run", "lifted": "run, lift", "fabrication": "run"}
 
 
 def keys() -> list[tuple[str, str]]:

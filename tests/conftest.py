@@ -149,6 +149,24 @@ def run_cli(*args: str) -> int:
     return main([str(a) for a in args])
 
 
+def stl_closed_volume(path: Path) -> float:
+    """The volume a binary STL encloses (divergence theorem), after asserting that it is
+    closed: its corners merged where equal, every edge bounds an even number of triangles."""
+    import numpy as np
+
+    record = np.dtype([("normal", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")])
+    corners = np.frombuffer(Path(path).read_bytes()[84:], dtype=record)["v"]
+    points, index = np.unique(corners.reshape(-1, 3).astype(float), axis=0,
+                              return_inverse=True)
+    triangles = index.reshape(-1, 3)
+    edges = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]],
+                                    triangles[:, [2, 0]]]), axis=1)
+    count = np.unique(edges, axis=0, return_counts=True)[1]
+    assert np.all(count % 2 == 0), f"{path}: {np.sum(count % 2)} edges bound one triangle"
+    p = points[triangles]
+    return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6)
+
+
 def read_json(path: Path) -> dict:
     return json.loads(Path(path).read_text())
 

@@ -24,6 +24,7 @@ from mpi4py import MPI
 from ..config import Config, load
 from ..errors import StateSolveError
 from ..io import files as io
+from ..io.fabrication import Sweep, write_fabrication
 from ..io.figures3d import write_shape3d_png
 from ..io.plotting import write_frame_png, write_shape_png
 from ..io.records import Verified
@@ -125,9 +126,13 @@ def run_optimization(cfg, out: Path, resume: bool = False,
         with timer("io"):
             write_outputs(out, done, extra=[problem.mode] if stability else [])
         verified = verify_best(cfg, done.model, settled, refined, lift_onto)
+        fabrication = None
+        if cfg.growth.levels is not None:
+            with timer("io"):
+                fabrication = write_design(out, cfg, done.rf, verified)
     summary = dataclasses.replace(summarise(cfg, done, settled, verified, timer, resume),
                                   linear_solver=linear_use(done.model.state.newton.linear, tally),
-                                  stability=stability)
+                                  stability=stability, fabrication=fabrication)
     io.write_json(out / "summary.json", summary.to_json())
     report_run(summary, settled, out, done.history, cfg.optimizer.ftol_window)
     return RunResult(summary, done.model)
@@ -258,6 +263,40 @@ def write_outputs(out: Path, done: Optimised, extra: list | None = None) -> None
                       "lambda_hat_1", places=places)
     if applied.frame == "free" and applied.dim == 2:
         write_frame_png(out / "frame.png", u, applied.eigenvalues, applied.angles[0], target)
+
+
+def write_design(out: Path, cfg, rf: ReducedFunctional, verified: Verified | None) -> str:
+    """growth.levels: fabrication/ (io/fabrication.py) for the crisp design the run settled
+    on; its fabrication.json's path in the run folder (summary.json's ``fabrication``)."""
+    assert rf.projection is not None
+    names, crisp, filtered = rf.level_fields()
+    write_fabrication(out, rf.projection, crisp, filtered, names, cfg.growth.filter_length,
+                      cfg.growth.sharpness[-1] if cfg.growth.sharpness else None,
+                      verified.headline if verified is not None else None,
+                      verified.status if verified is not None else "not verified (verify off)",
+                      sweep_of(cfg))
+    return "fabrication/fabrication.json"
+
+
+def sweep_of(cfg) -> Sweep | None:
+    """How a 2D model's regions become 3D parts: a body of revolution's section revolved, a
+    plane section extruded through the body's extent across it (a box's length, width or
+    thickness), a plane body through geometry.thickness; None for a 3D model, or a plane
+    body without a thickness."""
+    section = cfg.section
+    if cfg.model.dim == 3:
+        return None
+    axes = (section.axes[0], section.axes[1])
+    if section.axisymmetric:
+        return Sweep("revolve", axes, section.out_of_plane)
+    geo = cfg.geometry
+    extent = ({0: geo.length, 1: geo.width, 2: geo.thickness}.get(section.out_of_plane)
+              if geo.kind == "box" else geo.thickness)
+    if extent is None:
+        log.info("fabrication: the plane body has no geometry.thickness: its regions are in "
+                 "material.xdmf, without STL files")
+        return None
+    return Sweep("extrude", axes, section.out_of_plane, float(extent))
 
 
 def choose_verified(cfg, done: Optimised, settled: Settled

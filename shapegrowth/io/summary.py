@@ -93,6 +93,8 @@ class RunSummary:
     peak_memory_mb: float | None = None  # resident memory high-water mark, summed over ranks
     linear_solver: LinearSolverUse | None = None
     stability: Stability | None = None  # of the final state (solve)
+    # growth.levels: the run folder's fabrication.json (io/fabrication.py), else None
+    fabrication: str | None = None
 
     @property
     def relative_error(self) -> float | None:
@@ -124,7 +126,8 @@ class RunSummary:
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> RunSummary:
         names = {f.name for f in dataclasses.fields(cls)} - {"solve", "optimization", "verified"}
-        names -= {"peak_memory_mb", "linear_solver", "stability"} - set(data)  # older ones
+        # keys older summaries lack
+        names -= {"peak_memory_mb", "linear_solver", "stability", "fabrication"} - set(data)
         common: dict[str, Any] = {k: data.get(k) for k in names}
         if data.get("stability"):
             common["stability"] = _stability(data["stability"])

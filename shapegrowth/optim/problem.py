@@ -138,6 +138,20 @@ class ReducedFunctional:
         for field, x in zip(self.targets, self._filtered):
             field.x.array[:] = self.projection.value(x, self.sharpness)
 
+    def level_fields(self) -> tuple[list[str], list[dolfinx.fem.Function],
+                                    list[dolfinx.fem.Function]]:
+        """growth.levels: the designed eigenvalues' names, their fields as applied (at the
+        current sharpness; crisp once settled) and the same after the filter, before the
+        projection (the design the crisp one rounds)."""
+        assert self.projection is not None, "growth.levels is not set"
+        filtered = []
+        for field, x in zip(self.targets, self._filtered):
+            f = dolfinx.fem.Function(self.space, name=f"{field.name}_filtered")
+            f.x.array[:] = x
+            filtered.append(f)
+        n = self.n_projected
+        return self.names[:n], self.targets[:n], filtered
+
     def set_sharpness(self, beta: float) -> None:
         """One stage of growth.sharpness (math.inf: the crisp design): the growth changes with
         it, so the state is solved again (from the last equilibrium) at the next evaluation."""
