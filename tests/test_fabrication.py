@@ -51,7 +51,7 @@ def test_a_section_s_materials_are_swept_into_closed_parts(config, sets, split, 
     model = ForwardModel.build(cfg)
     filtered, crisp = filtered_and_crisp(model, split)
     out = shared_tmp / "made"
-    made = write_fabrication(out, LevelProjection(LEVELS), crisp, filtered, ["lambda_1"], 0.0,
+    made = write_fabrication(out, [LevelProjection(LEVELS)], crisp, filtered, ["lambda_1"], 0.0,
                              None, None, "not verified", sweep_of(cfg))
     start, end = (0.0, 1.0) if config == "beam_arc.yaml" else (0.2, 1.0)
     expected = [swept(start, split, 0), swept(split, end, 0)]

@@ -98,6 +98,34 @@ def test_a_run_ends_with_the_crisp_design_verified_from_rest(shared_tmp):
     assert (out / "fabrication" / "material.xdmf").is_file()
 
 
+PER_EIGENVALUE = ((0.8, 1.3), (0.9, 1.1), (0.95, 1.2))  # the start 1.0 inside each
+
+
+@pytest.mark.mpi
+def test_each_eigenvalue_takes_its_own_levels_with_an_exact_gradient(shared_tmp):
+    """growth.levels as one list per designed eigenvalue: the gradient is exact (Taylor
+    above 1.9 at sharpness 4), and a short run ends with each field on its own levels and
+    materials made of one level of each."""
+    levels = "growth.levels=" + str([list(g) for g in PER_EIGENVALUE]).replace(" ", "")
+    sets = [levels, "growth.filter_length=0.05", "solver.rtol=1e-13"]
+    out = shared_tmp / "gradcheck"
+    assert run_cli("gradcheck", CONFIGS / "tiny" / "beam_wave.yaml", "--out", out, "-q",
+                   *[a for s in [*sets, "growth.sharpness=[4]"] for a in ("--set", s)]) == 0
+    assert min(read_json(out / "gradcheck.json")["sharpness"][0]["rates"][:3]) > 1.9
+    out = shared_tmp / "run"
+    assert run_cli("run", CONFIGS / "tiny" / "beam_wave.yaml", "--out", out, "-q",
+                   *[a for s in [*sets, "growth.sharpness=[1,8]", "optimizer.max_iterations=6",
+                                 "verify.enabled=false"] for a in ("--set", s)]) == 0
+    growth = np.load(out / "growth.npz")
+    for k, own in enumerate(PER_EIGENVALUE):
+        assert set(np.unique(growth[f"lambda_hat_{k + 1}"]).tolist()) <= set(own)
+    made = read_json(out / "fabrication" / "fabrication.json")
+    assert made["levels"] == [list(g) for g in PER_EIGENVALUE]
+    for material in made["materials"]:
+        assert all(g in own for g, own in zip(material["growth"], PER_EIGENVALUE))
+    assert made["verified"] is None
+
+
 @pytest.mark.parametrize("sets, message", [
     (["growth.levels=[1.3,0.8]"], "growth.levels: two values or more, increasing"),
     (["growth.levels=[1.0]"], "growth.levels: two values or more, increasing"),
@@ -107,6 +135,10 @@ def test_a_run_ends_with_the_crisp_design_verified_from_rest(shared_tmp):
                                                             "increasing"),
     (["growth.levels=[0.8,1.3]", "verify.best=verified", "verify.every=5"],
      "growth.levels: the crisp design is what is verified"),
+    (["growth.levels=[[0.8,1.3],[0.9,1.1]]"], "growth.levels: one list per designed "
+                                               "eigenvalue (growth.eigenvalues.design: [1, 2, 3])"),
+    (["growth.levels=[[0.8,1.3],[1.05,1.1],[0.9,1.1]]"],
+     "growth.eigenvalues.initial[1]: 1.0 is outside growth.levels' range [1.05, 1.1]"),
 ])
 def test_bad_levels_are_one_line_each(sets, message):
     with pytest.raises(ConfigError) as err:

@@ -268,9 +268,8 @@ def write_outputs(out: Path, done: Optimised, extra: list | None = None) -> None
 def write_design(out: Path, cfg, rf: ReducedFunctional, verified: Verified | None) -> str:
     """growth.levels: fabrication/ (io/fabrication.py) for the crisp design the run settled
     on; its fabrication.json's path in the run folder (summary.json's ``fabrication``)."""
-    assert rf.projection is not None
     names, crisp, filtered = rf.level_fields()
-    write_fabrication(out, rf.projection, crisp, filtered, names, cfg.growth.filter_length,
+    write_fabrication(out, rf.projections, crisp, filtered, names, cfg.growth.filter_length,
                       cfg.growth.sharpness[-1] if cfg.growth.sharpness else None,
                       verified.headline if verified is not None else None,
                       verified.status if verified is not None else "not verified (verify off)",

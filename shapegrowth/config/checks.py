@@ -262,29 +262,40 @@ def _check_levels(cfg: Config, errors: list[str]) -> None:
                       f"{len(levels)} levels (one iteration each at least); raise it")
 
 
-def _check_growth_levels(cfg: Config, initial: tuple, errors: list[str]) -> None:
-    """growth.levels and growth.sharpness (physics/projection.py)."""
+def _check_growth_levels(cfg: Config, initial: tuple, design: tuple[int, ...],
+                         errors: list[str]) -> None:
+    """growth.levels and growth.sharpness (physics/projection.py); ``design`` the designed
+    eigenvalues (1-based)."""
     g = cfg.growth
-    levels, beta = g.levels, g.sharpness
+    beta = g.sharpness
     if not beta or any(b <= 0 for b in beta) or any(b >= c for b, c in zip(beta, beta[1:])):
         errors.append(f"growth.sharpness: positive and increasing, got {list(beta)}")
-    if levels is None:
+    if g.levels is None:
         return
+    levels: tuple = g.levels
+    nested = bool(levels) and isinstance(levels[0], tuple)
+    if nested and len(levels) != len(design):
+        errors.append(f"growth.levels: one list per designed eigenvalue (growth.eigenvalues."
+                      f"design: {list(design)}), or one list for all; got {len(levels)}")
+        return
+    sets = levels if nested else (levels,) * len(design)
     lo, hi = g.eigenvalues.bounds
-    if len(levels) < 2 or any(a >= b for a, b in zip(levels, levels[1:])):
-        errors.append(f"growth.levels: two values or more, increasing, got {list(levels)}")
-        return
-    if not (lo <= levels[0] and levels[-1] <= hi):
-        errors.append(f"growth.levels: {list(levels)} leave the eigenvalues' bounds [{lo}, "
-                      f"{hi}]")
+    for i, levels in zip(design, sets):
+        if len(levels) < 2 or any(a >= b for a, b in zip(levels, levels[1:])):
+            errors.append(f"growth.levels: two values or more, increasing, got {list(levels)}")
+            return
+        if not (lo <= levels[0] and levels[-1] <= hi):
+            errors.append(f"growth.levels: {list(levels)} leave the eigenvalues' bounds "
+                          f"[{lo}, {hi}]")
+        value = initial[i - 1] if i - 1 < len(initial) else None
+        if isinstance(value, float) and not levels[0] <= value <= levels[-1]:
+            errors.append(f"growth.eigenvalues.initial[{i - 1}]: {value} is outside "
+                          f"growth.levels' range [{levels[0]}, {levels[-1]}], the design's "
+                          "bounds; start inside it (between two levels the projection moves "
+                          "it most)")
     if g.eigenvalues.incompressible:
         errors.append("growth.levels: the derived lambda_N of eigenvalues.incompressible takes "
                       "other values than the levels; design every eigenvalue instead")
-    for i, value in enumerate(initial):
-        if isinstance(value, float) and not levels[0] <= value <= levels[-1]:
-            errors.append(f"growth.eigenvalues.initial[{i}]: {value} is outside growth.levels' "
-                          f"range [{levels[0]}, {levels[-1]}], the design's bounds; start "
-                          "inside it (between two levels the projection moves it most)")
     if cfg.verify.best == "verified":
         errors.append("growth.levels: the crisp design is what is verified; verify.best: "
                       "verified (a check along the path, at a sharpness) does not apply")
@@ -312,7 +323,7 @@ def _check_growth(cfg: Config, errors: list[str]) -> GrowthConfig:
         errors.append(f"growth.eigenvalues.design: a subset of 1..{n_eig} without repeats, "
                       f"got {list(design)}")
 
-    _check_growth_levels(cfg, initial, errors)
+    _check_growth_levels(cfg, initial, tuple(design), errors)
 
     if g.frame == "tube" and dim == 2:
         errors.append("growth.frame: 'tube' is a 3D frame (2D allows cartesian, cylindrical, free)")

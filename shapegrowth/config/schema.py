@@ -107,6 +107,7 @@ def _convert(value: Any, tp: Any, path: str, errors: list[str]) -> Any:
     if origin in (Union, types.UnionType):
         if value is None and type(None) in args:
             return None
+        first: tuple[Any, list[str]] | None = None  # a member that took it with problems
         for member in args:
             if member is type(None):
                 continue
@@ -115,8 +116,12 @@ def _convert(value: Any, tp: Any, path: str, errors: list[str]) -> Any:
                 result = _convert(value, member, path, trial)
             except _Invalid:
                 continue
-            errors.extend(trial)
-            return result
+            if not trial:
+                return result
+            first = first or (result, trial)  # a later member may take it cleanly
+        if first is not None:
+            errors.extend(first[1])
+            return first[0]
         raise _Invalid
     if tp is float:
         if isinstance(value, str) and _FLOAT_LITERAL.fullmatch(value.strip()):

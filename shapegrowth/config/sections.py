@@ -277,10 +277,12 @@ class GrowthConfig:
         "start: lifted or run: the folder of a finished run (its summary.json and "
         "growth.npz): of a 2D section model of this body (lifted), of this body on this "
         "mesh (run)", None)
-    levels: tuple[float, ...] | None = option(
+    levels: tuple[float, ...] | tuple[tuple[float, ...], ...] | None = option(
         "the values every designed eigenvalue takes at the end of a run, increasing: one "
         "material per value, each of one growth (swelling) ratio (e.g. [1.0, 1.3]: two "
-        "materials). The filtered field is projected onto them by a smoothed Heaviside per "
+        "materials), or one such list per designed eigenvalue, in growth.eigenvalues.design's "
+        "order (e.g. [[0.9, 1.2], [1.0, 1.1]]; a material is then one level of each). The "
+        "filtered field is projected onto them by a smoothed Heaviside per "
         "interval whose sharpness grows over the stages of growth.sharpness; the run ends with "
         "the crisp design (each value sent to its nearest level), settled and verified from "
         "rest. The design's bounds become [first, last]; the filter length is the smallest "
@@ -289,6 +291,17 @@ class GrowthConfig:
         "growth.levels: the projection's sharpness beta, one optimisation stage each, "
         "increasing (each stage gets its share of optimizer.max_iterations; an alpha schedule "
         "runs first, at the first sharpness)", (1.0, 2.0, 4.0, 8.0, 16.0, 32.0))
+
+    def level_sets(self) -> tuple[tuple[float, ...], ...] | None:
+        """growth.levels per designed eigenvalue (growth.eigenvalues.design's order): the one
+        list for all repeated, or each eigenvalue's own; None without levels."""
+        if self.levels is None:
+            return None
+        n = len(resolved(self.eigenvalues.design))
+        levels: tuple = self.levels
+        if levels and isinstance(levels[0], tuple):
+            return tuple(tuple(float(g) for g in level) for level in levels)
+        return (tuple(float(g) for g in levels),) * n
 
 
 ALIGNMENTS = ("none", "principal_axes", "best_fit")

@@ -80,7 +80,7 @@ class Material:
 class Fabrication:
     """fabrication/fabrication.json."""
 
-    levels: tuple[float, ...]
+    levels: tuple[tuple[float, ...], ...]  # of each designed eigenvalue
     designed: tuple[str, ...]  # the designed eigenvalues, in the order of Material.growth
     materials: tuple[Material, ...]
     smallest_feature: float  # over every material's pieces
@@ -98,6 +98,8 @@ class Fabrication:
     def to_json(self) -> dict[str, Any]:
         out = dataclasses.asdict(self)
         out["volume_fractions"] = self.volume_fractions
+        if len(set(self.levels)) == 1:  # one list for all, as growth.levels gave it
+            out["levels"] = list(self.levels[0])
         return out
 
 
@@ -126,50 +128,52 @@ def cell_volumes(mesh, sweep: Sweep | None = None, quadrature_degree: int = 4) -
     return np.asarray(vector.array[:owned]).copy()
 
 
-def write_fabrication(out: Path, projection: LevelProjection, crisp: list[dolfinx.fem.Function],
-                      filtered: list[dolfinx.fem.Function], designed: list[str],
-                      filter_length: float, sharpness: float | None,
+def write_fabrication(out: Path, projections: list[LevelProjection],
+                      crisp: list[dolfinx.fem.Function], filtered: list[dolfinx.fem.Function],
+                      designed: list[str], filter_length: float, sharpness: float | None,
                       verified: float | None, verified_status: str,
                       sweep: Sweep | None = None) -> Fabrication:
-    """fabrication/ in ``out`` (collective): ``crisp`` the nodal crisp fields the run was
-    verified with, ``filtered`` the same fields before the projection, ``designed`` their
-    names; ``sharpness`` the last stage's (for the grey fraction); ``sweep`` a 2D model's
-    way into 3D (None: a 2D model writes no STL)."""
+    """fabrication/ in ``out`` (collective): ``projections`` onto each designed eigenvalue's
+    levels, ``crisp`` the nodal crisp fields the run was verified with, ``filtered`` the same
+    fields before the projection, ``designed`` their names; ``sharpness`` the last stage's
+    (for the grey fraction); ``sweep`` a 2D model's way into 3D (None: a 2D model writes no
+    STL)."""
     mesh = crisp[0].function_space.mesh
     comm = mesh.comm
     tdim = mesh.topology.dim
     folder = out / "fabrication"
     at_centre = [cell_values(f) for f in filtered]
-    own = np.column_stack([projection.index(x) for x in at_centre])  # (cells, fields)
-    levels = np.asarray(projection.levels)
+    own = np.column_stack([p.index(x) for p, x in zip(projections, at_centre)])
+    growth = np.column_stack([np.asarray(p.levels)[own[:, k]]  # (cells, fields)
+                              for k, p in enumerate(projections)])
     # the nodal crisp design varies in a cell where its centre value is not a level
     crisp_centre = np.column_stack([cell_values(f) for f in crisp])
-    varies = np.any(np.abs(crisp_centre - levels[own]) > 1e-9 * np.ptp(levels), axis=1)
+    spread = max(p.levels[-1] - p.levels[0] for p in projections)
+    varies = np.any(np.abs(crisp_centre - growth) > 1e-9 * spread, axis=1)
     grey = np.zeros(len(own), dtype=bool)
     if sharpness is not None and math.isfinite(sharpness):
-        # the interval each value lies in (its level and a neighbour)
-        low = np.clip(np.searchsorted(levels, np.column_stack(at_centre), side="right") - 1,
-                      0, len(levels) - 2)
-        width = levels[low + 1] - levels[low]
-        for k, x in enumerate(at_centre):
-            moved = np.abs(projection.value(x, sharpness) - levels[own[:, k]])
-            grey |= moved > GREY * width[:, k]
+        for k, (p, x) in enumerate(zip(projections, at_centre)):
+            levels = np.asarray(p.levels)  # the interval x lies in: its level and a neighbour
+            low = np.clip(np.searchsorted(levels, x, side="right") - 1, 0, len(levels) - 2)
+            moved = np.abs(p.value(x, sharpness) - growth[:, k])
+            grey |= moved > GREY * (levels[low + 1] - levels[low])
     volumes = cell_volumes(mesh, sweep)
     nodes = compat.geometry_nodes(mesh)[:len(volumes)]
     n_corners = len(basix.topology(_cell_type(mesh))[0])
     corners = mesh.geometry.x[nodes[:, :n_corners]]  # (cells, corners, 3)
-    gathered = comm.gather((own, volumes, corners, varies, grey), root=0)
+    gathered = comm.gather((growth, volumes, corners, varies, grey), root=0)
     result = None
     if comm.rank == 0:
         assert gathered is not None
-        index, volumes, corners, varies, grey = (np.concatenate(parts) for parts in
+        every, volumes, corners, varies, grey = (np.concatenate(parts) for parts in
                                                  zip(*gathered))
-        result = _fabrication(folder, _cell_type(mesh), tdim, levels, designed, index,
+        result = _fabrication(folder, _cell_type(mesh), tdim,
+                              tuple(p.levels for p in projections), designed, every,
                               volumes, corners, varies, grey, filter_length, sharpness,
                               verified, verified_status, sweep)
     result = comm.bcast(result, root=0)
     write_json(folder / "fabrication.json", result.to_json(), comm)
-    _write_material_field(folder / "material.xdmf", mesh, result, levels[own])
+    _write_material_field(folder / "material.xdmf", mesh, result, growth)
     log.info("fabrication: %d material(s) (%s) in %s; smallest feature %.3g (filter length "
              "%.3g), interface cells %.1f %% of the volume", len(result.materials),
              ", ".join(f"{100 * m.volume_fraction:.1f} %" for m in result.materials), folder,
@@ -182,19 +186,21 @@ def _cell_type(mesh) -> basix.CellType:
     return getattr(basix.CellType, name)
 
 
-def _material_ids(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The materials used (rows of level indices, sorted) and each cell's."""
-    used, ids = np.unique(index, axis=0, return_inverse=True)
+def _material_ids(growth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The materials used (rows of levels, one per designed eigenvalue, sorted) and each
+    cell's."""
+    used, ids = np.unique(growth, axis=0, return_inverse=True)
     return used, ids.reshape(-1)
 
 
-def _fabrication(folder: Path, cell: basix.CellType, tdim: int, levels: np.ndarray,
-                 designed: list[str], index: np.ndarray, volumes: np.ndarray,
+def _fabrication(folder: Path, cell: basix.CellType, tdim: int,
+                 levels: tuple[tuple[float, ...], ...], designed: list[str],
+                 growth: np.ndarray, volumes: np.ndarray,
                  corners: np.ndarray, varies: np.ndarray, grey: np.ndarray,
                  filter_length: float, sharpness: float | None, verified: float | None,
                  verified_status: str, sweep: Sweep | None) -> Fabrication:
     """The materials and their surfaces, on rank 0 from every rank's cells."""
-    used, ids = _material_ids(index)
+    used, ids = _material_ids(growth)
     # the corners merged where their coordinates are equal (a node a rank shares is the
     # same number on each)
     points, vertex = np.unique(corners.reshape(-1, corners.shape[-1]), axis=0,
@@ -215,11 +221,11 @@ def _fabrication(folder: Path, cell: basix.CellType, tdim: int, levels: np.ndarr
             stl = f"material_{k}.stl"
             _write_stl(folder / stl, *_swept(sweep, points, cells[mine], surface, owner,
                                              cell))
-        materials.append(Material(k, tuple(float(levels[i]) for i in used[k]),
+        materials.append(Material(k, tuple(float(g) for g in used[k]),
                                   float(volumes[mine].sum()),
                                   float(volumes[mine].sum() / total), pieces, feature, stl))
     return Fabrication(
-        tuple(float(g) for g in levels), tuple(designed), tuple(materials),
+        levels, tuple(designed), tuple(materials),
         min(m.smallest_feature for m in materials), filter_length,
         float(volumes[varies].sum() / total),
         float(volumes[grey].sum() / total) if sharpness is not None else None,

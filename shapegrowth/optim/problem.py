@@ -72,13 +72,14 @@ class ReducedFunctional:
         # growth.levels: the designed eigenvalues projected onto the levels after the filter
         # (physics/projection.py), at the stage's sharpness; crisp (beta = inf) until a
         # driver's stage sets one, so a settled or verified design is the crisp one
-        levels = cfg.growth.levels
-        self.projection = LevelProjection(tuple(levels)) if levels is not None else None
+        sets = cfg.growth.level_sets()
+        # one projection per designed eigenvalue (its own levels, or the one list for all)
+        self.projections = [LevelProjection(levels) for levels in sets] if sets else []
         self.sharpness = math.inf
-        self.n_projected = len(design) if levels is not None else 0
+        self.n_projected = len(self.projections)
         self._filtered: list[np.ndarray] = []
-        bounds = (levels[0], levels[-1]) if levels is not None else eig.bounds
-        self.bounds_per_field = [bounds] * len(design) + \
+        self.bounds_per_field = ([(p.levels[0], p.levels[-1]) for p in self.projections]
+                                 or [eig.bounds] * len(design)) + \
             [tuple(b) for b in resolved(cfg.growth.angles.bounds)[:len(growth.angles)]]
         self.names = [f"lambda_{i}" for i in design] + \
             [f"theta_{k + 1}" for k in range(len(growth.angles))]
@@ -127,23 +128,22 @@ class ReducedFunctional:
                 if self.wall is not None:
                     field.x.array[:self.n_owned] = self.wall.apply(field.x.array)
                     field.x.scatter_forward()
-            if self.projection is not None:  # kept for the chain rule and a new sharpness
+            if self.projections:  # kept for the chain rule and a new sharpness
                 self._filtered = [f.x.array.copy() for f in self.targets[:self.n_projected]]
                 self._project()
 
     def _project(self) -> None:
         """growth.levels: the kept filtered eigenvalues projected at the current sharpness;
         every local entry, ghosts included, is nodal."""
-        assert self.projection is not None
-        for field, x in zip(self.targets, self._filtered):
-            field.x.array[:] = self.projection.value(x, self.sharpness)
+        for field, x, projection in zip(self.targets, self._filtered, self.projections):
+            field.x.array[:] = projection.value(x, self.sharpness)
 
     def level_fields(self) -> tuple[list[str], list[dolfinx.fem.Function],
                                     list[dolfinx.fem.Function]]:
         """growth.levels: the designed eigenvalues' names, their fields as applied (at the
         current sharpness; crisp once settled) and the same after the filter, before the
         projection (the design the crisp one rounds)."""
-        assert self.projection is not None, "growth.levels is not set"
+        assert self.projections, "growth.levels is not set"
         filtered = []
         for field, x in zip(self.targets, self._filtered):
             f = dolfinx.fem.Function(self.space, name=f"{field.name}_filtered")
@@ -155,7 +155,7 @@ class ReducedFunctional:
     def set_sharpness(self, beta: float) -> None:
         """One stage of growth.sharpness (math.inf: the crisp design): the growth changes with
         it, so the state is solved again (from the last equilibrium) at the next evaluation."""
-        if self.projection is None or beta == self.sharpness:
+        if not self.projections or beta == self.sharpness:
             return
         self.sharpness = beta
         self._project()
@@ -316,9 +316,8 @@ class ReducedFunctional:
             for k, i in enumerate(self._indices):
                 dual = sens[i]
                 if k < self.n_projected:  # dP/dx, nodal
-                    assert self.projection is not None
                     dual = sens[i].copy()
-                    dual.array[:self.n_owned] *= self.projection.slope(
+                    dual.array[:self.n_owned] *= self.projections[k].slope(
                         self._filtered[k][:self.n_owned], self.sharpness)
                 if self.wall is not None:  # P is symmetric: dJ/df P
                     walled = dual.copy()
