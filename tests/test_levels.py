@@ -39,6 +39,11 @@ def test_budgets_and_level_configs():
     assert level_budgets(smoke) == (1, 1)
     single = sg.load_config(ARC)
     assert level_config(single, 0) is single  # one level is the config itself
+    # growth.levels: the sharpness continues on the coarse level only, as the alphas
+    grown = sg.load_config(ARC, ["optimizer.levels=[0, 1]", "growth.levels=[0.9, 1.2]",
+                                 "growth.sharpness=[1, 4, 16]"])
+    assert level_config(grown, 0).growth.sharpness == (1.0, 4.0, 16.0)
+    assert level_config(grown, 1).growth.sharpness == (16.0,)
     with pytest.raises(sg.ConfigError, match="optimizer.levels"):
         sg.load_config(ARC, ["optimizer.levels=[0, 0]"])
 

@@ -3,7 +3,10 @@ mesh refined ``levels[k]`` times, starting from the design the last level ended 
 exactly (the refined meshes are nested in the coarse one: a Lagrange field of the design's
 degree is the same function there).  The coarse levels are cheap and find the large-scale
 design; the fine ones resolve what it leans on.  Later levels run at the last alpha of a
-schedule (the schedule's smooth start is the coarse level's job)."""
+schedule and at the last sharpness of growth.levels' projection (the smooth start and the
+continuation towards the levels are the coarse level's job: a fine level that started the
+sharpness again at 1 undid the coarse level's near-crisp design, its J up six-fold on scene
+1's section with two levels)."""
 
 from __future__ import annotations
 
@@ -32,7 +35,8 @@ def level_budgets(cfg: Config) -> tuple[int, ...]:
 
 
 def level_config(cfg: Config, k: int) -> Config:
-    """The config of level ``k``: its mesh, its budget and (after the first) the last alpha.
+    """The config of level ``k``: its mesh, its budget and (after the first) the last alpha
+    and the last sharpness.
     A single level at refinement 0 is ``cfg`` itself."""
     opt = cfg.optimizer
     refine, budget = opt.levels[k], level_budgets(cfg)[k]
@@ -45,4 +49,7 @@ def level_config(cfg: Config, k: int) -> Config:
     if k > 0 and len(hausdorff.alphas) > 1:
         last = dataclasses.replace(hausdorff, alpha=hausdorff.alphas[-1])
         changes["objective"] = dataclasses.replace(cfg.objective, hausdorff=last)
+    growth = cfg.growth
+    if k > 0 and growth.levels is not None and len(growth.sharpness) > 1:
+        changes["growth"] = dataclasses.replace(growth, sharpness=growth.sharpness[-1:])
     return dataclasses.replace(cfg, **changes) if changes else cfg
