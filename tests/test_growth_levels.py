@@ -40,6 +40,26 @@ def test_the_projection_keeps_its_levels_and_is_continuously_differentiable():
     assert p.slope(np.array([0.7, 1.7]), 4.0).tolist() == [0.0, 0.0]  # clipped
 
 
+def test_the_discreteness_measure_is_0_at_the_levels_and_1_between():
+    """grey_density: 4 (p - a)(b - p) / (b - a)^2 on p's interval, integrated over a body
+    where p is constant: 0 at every level, 1 at each interval's middle, 0.75 a quarter in."""
+    import dolfinx.fem
+    import dolfinx.mesh
+    import ufl
+
+    from shapegrowth import compat
+    from shapegrowth.physics.projection import grey_density
+
+    mesh = dolfinx.mesh.create_unit_square(MPI.COMM_WORLD, 2, 2)
+    p = dolfinx.fem.Function(compat.scalar_space(mesh, 1))
+    form = dolfinx.fem.form(grey_density(p, LEVELS) * ufl.dx)
+    for value, expected in [(0.8, 0.0), (1.1, 0.0), (1.6, 0.0), (0.95, 1.0), (1.35, 1.0),
+                            (0.875, 0.75), (1.475, 0.75)]:
+        p.x.array[:] = value
+        measured = mesh.comm.allreduce(dolfinx.fem.assemble_scalar(form), MPI.SUM)
+        assert measured == pytest.approx(expected, abs=1e-12), value
+
+
 LEVEL_SETS = ["growth.levels=[0.8,1.3]", "growth.filter_length=0.05", "solver.rtol=1e-13"]
 
 
@@ -104,10 +124,10 @@ PER_EIGENVALUE = ((0.8, 1.3), (0.9, 1.1), (0.95, 1.2))  # the start 1.0 inside e
 @pytest.mark.mpi
 def test_each_eigenvalue_takes_its_own_levels_with_an_exact_gradient(shared_tmp):
     """growth.levels as one list per designed eigenvalue: the gradient is exact (Taylor
-    above 1.9 at sharpness 4), and a short run ends with each field on its own levels and
-    materials made of one level of each."""
+    above 1.9 at sharpness 4, with the discreteness penalty), and a short run ends with each
+    field on its own levels and materials made of one level of each."""
     levels = "growth.levels=" + str([list(g) for g in PER_EIGENVALUE]).replace(" ", "")
-    sets = [levels, "growth.filter_length=0.05", "solver.rtol=1e-13"]
+    sets = [levels, "growth.filter_length=0.05", "solver.rtol=1e-13", "growth.grey_penalty=0.05"]
     out = shared_tmp / "gradcheck"
     assert run_cli("gradcheck", CONFIGS / "tiny" / "beam_wave.yaml", "--out", out, "-q",
                    *[a for s in [*sets, "growth.sharpness=[4]"] for a in ("--set", s)]) == 0

@@ -101,6 +101,7 @@ class ObjectiveValue:
     alpha: float  # the alpha it was evaluated at
     stability: float = 0.0  # the stability penalty in total (optimizer.stability)
     lowest_eigenvalue: float | None = None  # the tangent's, where the penalty computed it
+    grey: float = 0.0  # growth.grey_penalty's term in total (w D)
 
 
 class Objective:

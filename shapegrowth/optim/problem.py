@@ -30,17 +30,20 @@ from dataclasses import dataclass
 
 import dolfinx.fem
 import numpy as np
+import ufl
 from mpi4py import MPI
 
+from .. import compat
 from ..config import Config, resolved
 from ..errors import StateSolveError
 from ..physics.filters import HelmholtzFilter
 from ..physics.model import ForwardModel
 from ..physics.paths import solve_watched
-from ..physics.projection import LevelProjection
+from ..physics.projection import LevelProjection, grey_density
 from ..physics.state import SolveReport
 from ..physics.transfer import interpolate_between_meshes
 from ..physics.walls import WallMean
+from ..shape.clouds import assemble
 from ..timing import Timer
 from .adjoint import AdjointProblem
 from .objective import Objective, ObjectiveValue
@@ -96,6 +99,7 @@ class ReducedFunctional:
             for rho in self.design:
                 rho.x.array[:self.n_owned] = self.wall.apply(rho.x.array)
                 rho.x.scatter_forward()
+        self._grey = self._grey_forms(cfg.growth.grey_penalty)
         self.objective = Objective(cfg, model.state)
         self.adjoint = AdjointProblem(model.state)
         self.stability = (StabilityPenalty(model.state, cfg.optimizer.stability)
@@ -105,6 +109,24 @@ class ReducedFunctional:
         self._last: Evaluation | None = None
         self._report: SolveReport | None = None  # the state solve of the design ``_key``
         self.evaluations = 0
+
+    def _grey_forms(self, weight: float) -> tuple[dolfinx.fem.Form, list] | None:
+        """growth.grey_penalty: w D (physics/projection.py, grey_density) over the projected
+        fields, D their mean over the body and the fields, and its derivative by each."""
+        if not weight or not self.projections:
+            return None
+        mesh = self.space.mesh
+        # D is quadratic in the fields: exact at twice their degree (two levels)
+        dx = ufl.dx(domain=mesh, metadata={
+            "quadrature_degree": 2 * compat.space_degree(self.space)})
+        volume = mesh.comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(
+            1.0 * dx)), MPI.SUM)
+        scale = weight / (volume * len(self.projections))
+        density = sum(grey_density(f, p.levels)
+                      for f, p in zip(self.targets, self.projections))
+        value = scale * density * dx
+        return dolfinx.fem.form(value), [dolfinx.fem.form(ufl.derivative(value, f))
+                                         for f in self.targets[:self.n_projected]]
 
     # ---- the design vector -----------------------------------------------------------------
     @property
@@ -192,6 +214,9 @@ class ReducedFunctional:
             value = dataclasses.replace(
                 value, total=value.total + penalty, stability=penalty,
                 lowest_eigenvalue=self.stability.lowest[0] if self.stability.lowest else None)
+        if self._grey is not None:
+            grey = self.comm.allreduce(dolfinx.fem.assemble_scalar(self._grey[0]), MPI.SUM)
+            value = dataclasses.replace(value, total=value.total + grey, grey=grey)
         grad = None
         if gradient:
             grad = self._gradient(dJdu)
@@ -317,6 +342,8 @@ class ReducedFunctional:
                 dual = sens[i]
                 if k < self.n_projected:  # dP/dx, nodal
                     dual = sens[i].copy()
+                    if self._grey is not None:  # growth.grey_penalty: d(w D)/dp
+                        dual.axpy(1.0, assemble(self._grey[1][k]))
                     dual.array[:self.n_owned] *= self.projections[k].slope(
                         self._filtered[k][:self.n_owned], self.sharpness)
                 if self.wall is not None:  # P is symmetric: dJ/df P

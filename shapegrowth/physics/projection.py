@@ -20,8 +20,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import ufl
 
 
 @dataclass(frozen=True)
@@ -58,3 +60,16 @@ class LevelProjection:
         t, a, _, _ = self._split(np.asarray(x, dtype=float))
         g = np.asarray(self.levels, dtype=float)
         return np.minimum(np.searchsorted(g, a) + (t >= 0.5), len(g) - 1)
+
+
+def grey_density(p: Any, levels: tuple[float, ...]) -> Any:
+    """The discreteness measure of a projected field ``p`` (UFL), 0 at each level and 1 at an
+    interval's middle: 4 (p - a)(b - p) / (b - a)^2 on the interval [a, b] that p lies in
+    (Sigmund's measure of non-discreteness, Struct. Multidisc. Optim. 33 (2007) 401, on each
+    interval), the largest of the intervals' parabolas (the others are negative there)."""
+    parts = [4.0 * (p - a) * (b - p) / (b - a) ** 2 for a, b in zip(levels, levels[1:])]
+    out = parts[0]
+    for part in parts[1:]:
+        out = ufl.max_value(out, part)
+    return out
+
