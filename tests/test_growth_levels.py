@@ -65,17 +65,19 @@ LEVEL_SETS = ["growth.levels=[0.8,1.3]", "growth.filter_length=0.05", "solver.rt
 
 @pytest.mark.mpi
 def test_the_gradient_is_exact_at_every_sharpness(shared_tmp):
-    """The tiny beam with two levels: Taylor rates above 1.9 at every sharpness of the
-    schedule (the Newton tolerance tightened: at beta 16 the default's floor of ~1e-9 was
-    above the remainder's last halving)."""
+    """The tiny beam with two levels and the discreteness penalty: Taylor rates above 1.9 at
+    every sharpness of the schedule, three halvings of the step (the Newton tolerance
+    tightened: at beta 16 the default's floor of ~1e-9 was above the remainder's last
+    halving; with the penalty, measured, the fourth halving's remainder reaches the floor
+    of 1e-10 at beta 16)."""
     sets = [*LEVEL_SETS, "growth.sharpness=[1,8,16,32]"]
     status = run_cli("gradcheck", CONFIGS / "tiny" / "beam_wave.yaml", "--out", shared_tmp, "-q",
-                     *[a for s in sets for a in ("--set", s)])
+                     "--steps", "3", *[a for s in sets for a in ("--set", s)])
     report = read_json(shared_tmp / "gradcheck.json")
     assert status == 0
     assert [s["sharpness"] for s in report["sharpness"]] == [1.0, 8.0, 16.0, 32.0]
     for stage in report["sharpness"]:
-        assert min(stage["rates"][:3]) > 1.9, stage
+        assert min(stage["rates"]) > 1.9, stage
 
 
 @pytest.mark.mpi
@@ -222,7 +224,8 @@ def test_the_bilayer_is_found_again_as_the_optimum_of_its_arc(shared_tmp):
     0.98 and 1.02 for lambda_1 from the uniform 1.0: the crisp design found is the bilayer,
     0.98 below the mid-plane and 1.02 above it, at 90 % of the nodes off the mid-plane or
     more (measured: 94 %; the others at the free end, where the shape hardly depends on
-    them); verified within 4 % (measured 2.74 %), one STL per material."""
+    them); verified within 5 % (measured 4.18 % with the default discreteness penalty, 2.74 %
+    without), one STL per material."""
     out = shared_tmp / "bilayer"
     sets = ["mesh.layers=4", "growth.degree=1", f"parameters.kappa={bilayer_curvature(4)}",
             f"growth.levels=[{BILAYER[0]},{BILAYER[1]}]", "growth.sharpness=[1,4,16]",
@@ -235,7 +238,7 @@ def test_the_bilayer_is_found_again_as_the_optimum_of_its_arc(shared_tmp):
     bilayer = np.where(z > 0, BILAYER[1], BILAYER[0])
     assert np.mean(lam[off] == bilayer[off]) >= 0.9
     summary = read_json(out / "summary.json")
-    assert summary["verified"]["relative"] < 0.04
+    assert summary["verified"]["relative"] < 0.05
     made = read_json(out / "fabrication" / "fabrication.json")
     assert [m["growth"] for m in made["materials"]] == [[0.98], [1.02]]
     assert made["volume_fractions"]["material_0"] == pytest.approx(0.5, abs=0.05)

@@ -99,8 +99,8 @@ class ReducedFunctional:
             for rho in self.design:
                 rho.x.array[:self.n_owned] = self.wall.apply(rho.x.array)
                 rho.x.scatter_forward()
-        self._grey = self._grey_forms(cfg.growth.grey_penalty)
         self.objective = Objective(cfg, model.state)
+        self._grey = self._grey_forms(cfg.growth.grey_penalty)
         self.adjoint = AdjointProblem(model.state)
         self.stability = (StabilityPenalty(model.state, cfg.optimizer.stability)
                           if cfg.optimizer.stability.min_eigenvalue is not None else None)
@@ -111,8 +111,9 @@ class ReducedFunctional:
         self.evaluations = 0
 
     def _grey_forms(self, weight: float) -> tuple[dolfinx.fem.Form, list] | None:
-        """growth.grey_penalty: w D (physics/projection.py, grey_density) over the projected
-        fields, D their mean over the body and the fields, and its derivative by each."""
+        """growth.grey_penalty: w s D (physics/projection.py, grey_density) over the projected
+        fields, D their mean over the body and the fields, s the target's size (J is a
+        length), and its derivative by each."""
         if not weight or not self.projections:
             return None
         mesh = self.space.mesh
@@ -121,7 +122,7 @@ class ReducedFunctional:
             "quadrature_degree": 2 * compat.space_degree(self.space)})
         volume = mesh.comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(
             1.0 * dx)), MPI.SUM)
-        scale = weight / (volume * len(self.projections))
+        scale = weight * self.objective.target_size / (volume * len(self.projections))
         density = sum(grey_density(f, p.levels)
                       for f, p in zip(self.targets, self.projections))
         value = scale * density * dx
