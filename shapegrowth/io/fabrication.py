@@ -344,7 +344,7 @@ def _swept(sweep: Sweep, points: np.ndarray, cells: np.ndarray, segments: np.nda
         centres[:, sweep.axes[1]] = plane_centres[:, 1]
         p = out[triangles]
         area = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-        keep = area > 1e-14 * max(area.max(initial=0.0), 1e-300)
+        keep = area > 1e-14 * max(float(np.max(area, initial=0.0)), 1e-300)
         triangles, centres = triangles[keep], centres[keep]
     p = out[triangles]
     normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
