@@ -216,7 +216,8 @@ def _fabrication(folder: Path, cell: basix.CellType, tdim: int,
         stl = None
         if tdim == 3:
             stl = f"material_{k}.stl"
-            _write_stl(folder / stl, points, _outward(points, cells[mine], surface, owner))
+            _write_stl(folder / stl, points, _outward(
+                points, surface, points[cells[mine][owner]].mean(axis=1)))
         elif sweep is not None:
             stl = f"material_{k}.stl"
             _write_stl(folder / stl, *_swept(sweep, points, cells[mine], surface, owner,
@@ -262,12 +263,11 @@ def _surface(cells: np.ndarray, facets: list[list[int]], cell: basix.CellType
     return boundary, owners, pairs
 
 
-def _outward(points: np.ndarray, cells: np.ndarray, triangles: np.ndarray,
-             owner: np.ndarray) -> np.ndarray:
+def _outward(points: np.ndarray, triangles: np.ndarray, centres: np.ndarray) -> np.ndarray:
     """Each triangle turned so that its normal points away from its cell's centre."""
     p = points[triangles]
     normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    inward = np.einsum("ij,ij->i", normal, p.mean(axis=1) - points[cells[owner]].mean(axis=1))
+    inward = np.einsum("ij,ij->i", normal, p.mean(axis=1) - centres)
     return np.where((inward < 0)[:, None], triangles[:, ::-1], triangles)
 
 
@@ -346,10 +346,7 @@ def _swept(sweep: Sweep, points: np.ndarray, cells: np.ndarray, segments: np.nda
         area = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
         keep = area > 1e-14 * max(float(np.max(area, initial=0.0)), 1e-300)
         triangles, centres = triangles[keep], centres[keep]
-    p = out[triangles]
-    normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    inward = np.einsum("ij,ij->i", normal, p.mean(axis=1) - centres) < 0
-    return out, np.where(inward[:, None], triangles[:, ::-1], triangles)
+    return out, _outward(out, triangles, centres)
 
 
 def _embed(sweep: Sweep, plane: np.ndarray, across: float, angle: float = 0.0) -> np.ndarray:
