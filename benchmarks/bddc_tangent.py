@@ -29,7 +29,7 @@ from shapegrowth import compat
 from shapegrowth.commands.bench import DEFAULT_OVERRIDES
 from shapegrowth.config import load
 from shapegrowth.physics.model import ForwardModel
-from shapegrowth.physics.newton import rigid_body_modes
+from shapegrowth.physics.pmultigrid import rigid_body_modes
 
 BDDC = {"ksp_type": "gmres", "ksp_gmres_restart": 200, "ksp_rtol": 1e-10, "ksp_max_it": 1000,
         "pc_type": "bddc", "pc_bddc_use_faces": 1, "pc_bddc_use_deluxe_scaling": 1,

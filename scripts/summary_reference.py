@@ -114,6 +114,10 @@ MEANING: dict[str, str] = {
     "linear_solver.state_fallbacks": "of them, state solves",
     "linear_solver.adjoint_fallbacks": "of them, adjoint solves",
     "linear_solver.reasons": "PETSc's reasons of the first fallbacks",
+    "linear_solver.krylov_solves": "an iterative preset's (`mumps_blr`, `gamg`, `hypre`, "
+                                   "`pmg`) state Newton steps solved by it (0 for a "
+                                   "factorisation)",
+    "linear_solver.krylov_iterations": "their Krylov iterations, in all",
     "fabrication": "`growth.levels`: `fabrication/fabrication.json`, the crisp design's "
                    "materials (null without levels)",
 }

@@ -299,6 +299,17 @@ def assemble_matrix(form, bcs, diagonal: float = 1.0):
     return dolfinx.fem.petsc.assemble_matrix(form, bcs=bcs, diagonal=diagonal)
 
 
+def interpolation_matrix(coarse, fine):
+    """The PETSc matrix that interpolates functions of the space ``coarse`` into ``fine`` on
+    the same mesh (P1 into P2, Q1 into Q2; blocked spaces row-blocked alike): the
+    prolongation of a p-multigrid.  0.10 put it in dolfinx.fem.petsc; before, the C++
+    layer's takes the C++ spaces."""
+    if AT_LEAST_0_10:
+        return importlib.import_module("dolfinx.fem.petsc").interpolation_matrix(coarse, fine)
+    cpp = importlib.import_module("dolfinx.cpp.fem.petsc")
+    return cpp.interpolation_matrix(coarse._cpp_object, fine._cpp_object)
+
+
 def index_map_vector(index_map, bs: int):
     """A ghosted PETSc vector of the DOF layout ``index_map`` with block size ``bs`` (0.10
     moved dolfinx.la.create_petsc_vector to dolfinx.la.petsc.create_vector)."""

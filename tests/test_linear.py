@@ -83,9 +83,41 @@ def test_a_multigrid_preset_solves_a_chunky_body_as_lu_does(preset, shared_tmp):
 
 
 @pytest.mark.mpi
+def test_the_p_multigrid_grows_a_clamped_cube_as_lu_does(shared_tmp):
+    """A P2 (Q2 on the hex leg) cube clamped at one end, its growth varying across it and a
+    traction on the other end: the p-multigrid's state is LU's, with no fallback, in few
+    MINRES iterations per Newton step (measured: 32 on tetrahedra, 24 on hexahedra)."""
+    sets = ["--set", "model.degree=2", "--set", "mesh.size=0.25",
+            "--set", "boundary.clamp=x1_min",
+            "--set", "loads.traction={x1_max: [0.0, 0.1, 0.05]}",
+            "--set", "growth.eigenvalues.initial=['1.2 + 0.3*x2', 0.9, 1.0]",
+            "--probe", "0.5,0.5,0.5", "--probe", "0.5,-0.2,0.1"]
+    results = []
+    for name in ("mumps", "pmg"):
+        out = shared_tmp / name
+        assert run_cli("solve", CUBE, "--out", out, "-q", "--set", f"solver.linear={name}",
+                       *sets) == 0
+        results.append(_probes(out))
+    assert results[1] == pytest.approx(results[0], abs=1e-9)
+    use = read_json(shared_tmp / "pmg" / "summary.json")["linear_solver"]
+    assert use["preset"] == "pmg" and use["fallbacks"] == 0
+    assert use["krylov_solves"] > 0 and use["krylov_iterations"] < 60 * use["krylov_solves"]
+    assert read_json(shared_tmp / "mumps" / "summary.json")["linear_solver"]["krylov_solves"] == 0
+
+
+def test_the_p_multigrid_refuses_a_model_of_degree_one():
+    with pytest.raises(ConfigError) as err:
+        load(CUBE, ["solver.linear=pmg"])
+    assert str(err.value).splitlines() == [
+        "solver.linear: pmg coarsens P2 (Q2) displacements to P1 (Q1), and model.degree is "
+        "1; set model.degree: 2 or another solver"]
+
+
+@pytest.mark.mpi
 @pytest.mark.parametrize("config, preset", [(BEAM, "mumps_ldlt"), (BEAM, "mumps_ooc"),
                                             (BEAM, "mumps_blr"),
-                                            (SQUARE, "gamg"), (SQUARE, "hypre")])
+                                            (SQUARE, "gamg"), (SQUARE, "hypre"),
+                                            (SQUARE, "pmg")])
 def test_taylor_rate_with_each_preset(config, preset, shared_tmp):
     """The state, a fresh adjoint (no reuse of the state's factors) and the filter by the
     preset: the reduced gradient's Taylor rate stays above 1.9."""

@@ -52,7 +52,8 @@ def solve_forward(cfg: Config, out: Path,
 def linear_use(preset: str, tally: linear.FallbackTally) -> LinearSolverUse:
     """summary.json's ``linear_solver``: the preset and the fallbacks counted in ``tally``."""
     return LinearSolverUse(preset, tally.state + tally.adjoint, tally.state, tally.adjoint,
-                           tuple(tally.reasons))
+                           tuple(tally.reasons), krylov_solves=tally.krylov_solves,
+                           krylov_iterations=tally.krylov_iterations)
 
 
 def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, ...],

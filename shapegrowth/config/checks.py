@@ -164,6 +164,9 @@ def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     _check_levels(cfg, errors)
     if cfg.solver.continuation.min_step > cfg.solver.continuation.initial_step:
         errors.append("solver.continuation.min_step: must not exceed initial_step")
+    if cfg.solver.linear == "pmg" and model.degree != 2:
+        errors.append(f"solver.linear: pmg coarsens P2 (Q2) displacements to P1 (Q1), and "
+                      f"model.degree is {model.degree}; set model.degree: 2 or another solver")
     for key in cfg.solver.petsc_options:
         if not key.startswith(("state_", "adjoint_", "filter_")):
             errors.append(f"solver.petsc_options.{key}: keys start with state_, adjoint_ "

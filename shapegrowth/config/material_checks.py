@@ -122,7 +122,7 @@ def _check_formulation(cfg: Config, m: MaterialConfig, volumetric: str | None,
     if cfg.model.degree != 2:
         errors.append("model.degree: the mixed formulation is Taylor-Hood, P2 displacements "
                       "with a P1 pressure; set model.degree: 2")
-    if cfg.solver.linear in ("mumps_blr", "gamg", "hypre"):
+    if cfg.solver.linear in ("mumps_blr", "gamg", "hypre", "pmg"):
         errors.append(f"solver.linear: {cfg.solver.linear} is for a positive definite "
                       "tangent; a mixed body's is a saddle point: use mumps, mumps_ldlt, "
                       "mumps_ooc or auto")

@@ -162,11 +162,13 @@ class SolverConfig:
         "mumps_ldlt (symmetric LDL^T, half the factor), mumps_ooc (LDL^T with the factor on "
         "disk, in MUMPS_OOC_TMPDIR), mumps_blr (LDL^T with block low-rank "
         "compression under GMRES), gamg or hypre (algebraic multigrid with the rigid-body "
-        "modes, under GMRES, for chunky bodies), auto (chosen by the model's size: LU, LDL^T "
-        "from 20 000 3D state DOFs, out of core from 500 000); a "
+        "modes, under GMRES, for chunky bodies), pmg (a p-multigrid under MINRES for "
+        "model.degree 2: P2 to P1, the P1 level factorised or by GAMG), auto (chosen by "
+        "the model's size: LU, LDL^T from 20 000 3D state DOFs, out of core from 500 000); a "
         "preset's failed solve is done again with mumps, counted in summary.json "
         "linear_solver (measurements: docs/PERFORMANCE.md, \"Linear solvers\")", "auto",
-        choices=("mumps", "mumps_ldlt", "mumps_ooc", "mumps_blr", "gamg", "hypre", "auto"))
+        choices=("mumps", "mumps_ldlt", "mumps_ooc", "mumps_blr", "gamg", "hypre", "pmg",
+                 "auto"))
     branch: str = option(
         "past a bifurcation, a solve from rest (solve, the verification, a lift) follows the "
         "path it is on, now unstable (follow), or leaves it for a stable branch by a "

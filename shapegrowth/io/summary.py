@@ -53,14 +53,17 @@ class OptimizationMeasures:
 
 @dataclass(frozen=True)
 class LinearSolverUse:
-    """``solver.linear`` as used: the preset (``auto`` resolved on the run's last model) and
-    the solves that fell back to the exact factorisation (physics/linear.py)."""
+    """``solver.linear`` as used: the preset (``auto`` resolved on the run's last model), the
+    solves that fell back to the exact factorisation (physics/linear.py), and an
+    iterative preset's Newton steps with their Krylov iterations."""
 
     preset: str
     fallbacks: int
     state_fallbacks: int
     adjoint_fallbacks: int
     reasons: tuple[str, ...] = ()
+    krylov_solves: int = 0
+    krylov_iterations: int = 0
 
 
 @dataclass(frozen=True)

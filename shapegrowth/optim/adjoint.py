@@ -37,8 +37,8 @@ from petsc4py import PETSc
 from .. import compat
 from ..errors import AdjointSolveError
 from ..physics import linear
-from ..physics.newton import rigid_body_modes
 from ..physics.options import SolverOptions
+from ..physics.pmultigrid import PMultigrid, rigid_body_modes
 from ..physics.state import StateProblem
 from ..shape.clouds import assemble
 
@@ -58,8 +58,12 @@ class AdjointProblem:
         self.rhs = self.A.createVecRight()
         self.ksp = PETSc.KSP().create(state.domain.mesh.comm)
         self.linear = state.newton.linear  # the state's preset, resolved
-        self.options = SolverOptions(self.role, linear.preset_options(self.linear, self.role),
-                                     state.cfg.solver.petsc_options)
+        # the p-multigrid's coarse operator is this solver's own (physics/pmultigrid.py)
+        self.pmg = PMultigrid(state.V) if self.linear == "pmg" else None
+        defaults = linear.preset_options(self.linear, self.role)
+        if self.pmg is not None:
+            defaults.update(self.pmg.coarse_options())
+        self.options = SolverOptions(self.role, defaults, state.cfg.solver.petsc_options)
         if self.linear in linear.MULTIGRID:
             self.A.setNearNullSpace(rigid_body_modes(state.V))
         self.ksp.setOptionsPrefix(self.options.prefix)
@@ -92,6 +96,8 @@ class AdjointProblem:
                           linear.error_code(err))
         self.refinements = -1
         st.tangent_into(self.A)
+        if self.pmg is not None:
+            self.pmg.prepare(self.ksp, self.A)
         failure = self._fresh_solve(self.ksp, self.options)
         if failure and self.linear != "mumps":
             linear.record_fallback(self.role, self.linear, failure)

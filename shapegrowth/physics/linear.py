@@ -30,6 +30,10 @@ Presets (the PETSc options of each, without a prefix, are in :func:`preset_optio
 ``hypre``
     hypre's BoomerAMG with nodal coarsening and vector interpolation (the near-nullspace),
     under GMRES.
+``pmg``
+    a p-multigrid (physics/pmultigrid.py) under MINRES: P2 (Q2) smoothed by Chebyshev with
+    Jacobi, the Galerkin P1 (Q1) operator solved by GAMG with the P1 nodes' rigid-body
+    modes; for chunky bodies of degree 2.
 
 ``auto`` picks one from the model's kind and size (:func:`choose`): LU for 2D models and small
 3D ones, LDL^T from :data:`AUTO_LDLT_DOFS` state DOFs, out of core from :data:`AUTO_OOC_DOFS`.
@@ -61,9 +65,9 @@ from .options import SolverOptions
 
 log = logging.getLogger(__name__)
 
-PRESETS = ("mumps", "mumps_ldlt", "mumps_ooc", "mumps_blr", "gamg", "hypre")
+PRESETS = ("mumps", "mumps_ldlt", "mumps_ooc", "mumps_blr", "gamg", "hypre", "pmg")
 CHOICES = (*PRESETS, "auto")
-ITERATIVE = ("mumps_blr", "gamg", "hypre")  # a Krylov method outside
+ITERATIVE = ("mumps_blr", "gamg", "hypre", "pmg")  # a Krylov method outside
 MULTIGRID = ("gamg", "hypre")  # need the rigid-body near-nullspace
 
 # After this many failed solves in a row a model's state solves use the exact
@@ -116,6 +120,8 @@ def preset_options(name: str, role: str) -> dict[str, object]:
                 "mg_levels_ksp_max_it": 3,
                 # PETSc 3.18 reads the first name, 3.19 and later the second
                 "pc_gamg_esteig_ksp_type": "cg", "mg_levels_esteig_ksp_type": "cg"}
+    if name == "pmg":
+        return {**krylov, **PMG_OPTIONS, "ksp_type": "minres"}
     if name == "hypre":
         return {**krylov, "pc_type": "hypre", "pc_hypre_type": "boomeramg",
                 "pc_hypre_boomeramg_nodal_coarsen": 6,
@@ -127,12 +133,32 @@ def preset_options(name: str, role: str) -> dict[str, object]:
     raise ValueError(f"unknown linear solver preset {name!r}")
 
 
+# The p-multigrid (physics/pmultigrid.py) under MINRES: two levels, the coarse operator set
+# by the solver (pc_mg_galerkin none), the fine level smoothed by two Chebyshev steps with
+# Jacobi, the coarse level one V-cycle of GAMG tuned as the gamg preset.  MINRES, not CG: a
+# Newton iterate's tangent can be indefinite where the state is stable (the tiny cube under
+# dead traction: CG stopped on "indefinite matrix", with Jacobi alone after 266 iterations
+# too), and MINRES takes a symmetric indefinite operator with the V-cycle, which is
+# symmetric positive definite, in a few vectors (GMRES(100) would hold 100).
+PMG_OPTIONS: dict[str, object] = {
+    "pc_type": "mg", "pc_mg_levels": 2, "pc_mg_galerkin": "none",
+    "mg_levels_ksp_type": "chebyshev", "mg_levels_pc_type": "jacobi",
+    "mg_levels_ksp_max_it": 2, "mg_levels_ksp_chebyshev_esteig_steps": 20,
+    "mg_levels_esteig_ksp_type": "cg",
+    "mg_coarse_ksp_type": "preonly", "mg_coarse_pc_type": "gamg",
+    "mg_coarse_pc_gamg_type": "agg", "mg_coarse_pc_gamg_agg_nsmooths": 1,
+    "mg_coarse_pc_gamg_threshold": -1.0, "mg_coarse_pc_gamg_coarse_eq_limit": 2000,
+    "mg_coarse_mg_levels_ksp_type": "chebyshev", "mg_coarse_mg_levels_pc_type": "jacobi",
+    "mg_coarse_pc_gamg_esteig_ksp_type": "cg", "mg_coarse_mg_levels_esteig_ksp_type": "cg",
+}
+
+
 def _filter_options(name: str) -> dict[str, object]:
     """The Helmholtz filter's system is SPD and about as well conditioned as a mass matrix:
     CG, with Jacobi for the direct presets (as always) and the multigrid where asked."""
     opts: dict[str, object] = {"ksp_type": "cg", "pc_type": "jacobi", "ksp_rtol": 1e-13,
                                "ksp_atol": 1e-30, "ksp_max_it": 2000}
-    if name == "gamg":
+    if name in ("gamg", "pmg"):
         opts.update({"pc_type": "gamg", "pc_gamg_threshold": -1.0})
     elif name == "hypre":
         opts.update({"pc_type": "hypre", "pc_hypre_type": "boomeramg"})
@@ -143,7 +169,7 @@ def missing_package(name: str) -> str | None:
     """The external package preset ``name`` needs and this PETSc lacks (None: all there);
     every preset needs MUMPS at least for the LU its failed solves fall back to."""
     need = {"mumps": "mumps", "mumps_ldlt": "mumps", "mumps_ooc": "mumps", "mumps_blr": "mumps",
-            "gamg": "mumps", "hypre": "hypre"}[name]
+            "gamg": "mumps", "hypre": "hypre", "pmg": "mumps"}[name]
     return None if has_package(need) else need
 
 
@@ -241,6 +267,8 @@ class FallbackTally:
     state: int = 0
     adjoint: int = 0
     reasons: list[str] = field(default_factory=list)
+    krylov_solves: int = 0  # linear solves of an iterative preset (the state's Newton steps)
+    krylov_iterations: int = 0  # ... and their Krylov iterations
 
     def record(self, role: str, reason: str) -> None:
         if role == "adjoint_":
@@ -264,6 +292,15 @@ def counting() -> Iterator[FallbackTally]:
         yield tally
     finally:
         _TALLY.reset(token)
+
+
+def count_krylov(solves: int, iterations: int) -> None:
+    """Count an iterative preset's linear solves and their Krylov iterations where a run
+    counts (summary.json ``linear_solver``)."""
+    tally = _TALLY.get()
+    if tally is not None:
+        tally.krylov_solves += solves
+        tally.krylov_iterations += iterations
 
 
 def give_up(role: str, preset: str) -> None:

@@ -17,6 +17,7 @@ from ..config import Config, ConfigError
 from . import linear
 from .linear import preset_options
 from .options import SolverOptions
+from .pmultigrid import PMultigrid, rigid_body_modes
 
 
 def solver_options(cfg: Config, force_scale: float, linear: str) -> dict[str, object]:
@@ -39,32 +40,6 @@ def solver_options(cfg: Config, force_scale: float, linear: str) -> dict[str, ob
     }
     opts.update(preset_options(linear, "state_"))
     return opts
-
-
-def rigid_body_modes(V) -> PETSc.NullSpace:
-    """Translations and infinitesimal rotations, the near-nullspace for GAMG."""
-    gdim = V.mesh.geometry.dim
-    index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
-    n = index_map.size_local
-    x = V.tabulate_dof_coordinates()[:n]
-    modes = np.zeros((6 if gdim == 3 else 3, n, bs))
-    for i in range(gdim):
-        modes[i, :, i] = 1.0
-    if gdim == 3:
-        modes[3, :, 0], modes[3, :, 1] = -x[:, 1], x[:, 0]
-        modes[4, :, 0], modes[4, :, 2] = x[:, 2], -x[:, 0]
-        modes[5, :, 2], modes[5, :, 1] = x[:, 1], -x[:, 2]
-    else:
-        modes[2, :, 0], modes[2, :, 1] = -x[:, 1], x[:, 0]
-    vecs: list[PETSc.Vec] = []
-    for mode in modes:  # Gram-Schmidt with PETSc's (global) products: dolfinx.la's
-        vec = compat.index_map_vector(index_map, bs)  # orthonormalize takes
-        vec.array[:] = mode.ravel()  # PETSc vectors in 0.5.2, its own in 0.9
-        for other in vecs:
-            vec.axpy(-vec.dot(other), other)
-        vec.normalize()
-        vecs.append(vec)
-    return PETSc.NullSpace().create(vectors=vecs)
 
 
 SNES_REASONS = {  # PETSc's SNESConvergedReason
@@ -98,6 +73,16 @@ def _alive(ref: weakref.ref[_Equations]) -> _Equations:
     return problem
 
 
+def _tangent_callback(owner: weakref.ref[_Equations], pmg: PMultigrid | None):
+    """SNES's Jacobian callback: the tangent, and where the preset is the p-multigrid, its
+    coarse operator (the callback holds the problem weakly: see NewtonSolver)."""
+    def tangent(snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, _P: PETSc.Mat) -> None:
+        _alive(owner).assemble_tangent(x, J)
+        if pmg is not None:
+            pmg.prepare(snes.getKSP(), J)
+    return tangent
+
+
 class NewtonSolver:
     """PETSc SNES for R(u) = 0 (options prefix ``role``): Newton's method with the linear
     solver's preset (physics/linear.py), and where the preset's linear solve fails, the same
@@ -113,8 +98,12 @@ class NewtonSolver:
         self.snes = PETSc.SNES().create(comm)
         self.linear = linear.choose(cfg.solver.linear, compat.global_size(V),
                                     V.mesh.geometry.dim)
-        self.options = SolverOptions(role, solver_options(cfg, force_scale, self.linear),
-                                     cfg.solver.petsc_options)
+        # the p-multigrid's interpolation and coarse operator (physics/pmultigrid.py)
+        self.pmg = PMultigrid(V) if self.linear == "pmg" else None
+        defaults = solver_options(cfg, force_scale, self.linear)
+        if self.pmg is not None:
+            defaults.update(self.pmg.coarse_options())
+        self.options = SolverOptions(role, defaults, cfg.solver.petsc_options)
         self.snes.setOptionsPrefix(self.options.prefix)
         # the SNES holds its callbacks, and petsc4py 3.25 does not show them to Python's
         # garbage collector: callbacks holding the state would keep it (its mesh, matrices
@@ -123,7 +112,7 @@ class NewtonSolver:
         # crashed in its symmetric scaling)
         owner = self._problem
         self.snes.setFunction(lambda _snes, x, r: _alive(owner).assemble_residual(x, r), b)
-        self.snes.setJacobian(lambda _snes, x, J, _P: _alive(owner).assemble_tangent(x, J), A)
+        self.snes.setJacobian(_tangent_callback(owner, self.pmg), A)
         try:
             with self.options.pushed():
                 self.snes.setFromOptions()
@@ -149,6 +138,9 @@ class NewtonSolver:
                 ksp.setFromOptions()
             self._exact = (ksp, options)
         return self._exact
+
+    def _exact_ksp_or_none(self) -> PETSc.KSP | None:
+        return None if self._exact is None else self._exact[0]
 
     def solve(self, reference: float | None = None,
               rtol: float | None = None) -> tuple[bool, int, str]:
@@ -230,6 +222,8 @@ class NewtonSolver:
                 self.snes.setTolerances(rtol=tolerances[0], atol=tolerances[1])
         reason = linear.reason_of(self.snes)
         its = self.snes.getIterationNumber()
+        if self.linear in linear.ITERATIVE and self.snes.getKSP() is not self._exact_ksp_or_none():
+            linear.count_krylov(its, self.snes.getLinearSolveIterations())
         problem.w.x.scatter_forward()
         ok = self.comm.allreduce(
             bool(reason > 0 and np.isfinite(problem.w.x.array).all()), MPI.LAND)

@@ -1,0 +1,110 @@
+"""The p-multigrid of ``solver.linear: pmg``: two levels on one mesh, the state's P2 (Q2)
+displacements and the P1 (Q1) ones of the same cells.
+
+The fine level is smoothed by Chebyshev with Jacobi; the coarse operator is the Galerkin
+product A_1 = P^T A P (P interpolates P1 into P2: :func:`compat.interpolation_matrix`),
+formed here at every tangent assembly rather than by PCMG, so that it carries the P1 nodes'
+rigid-body modes as its near-nullspace; smoothed aggregation (GAMG) with those modes solves
+it.  Aggregation sees the vertices it was made for: on a P2 tangent the edge midpoints'
+couplings mislead it (tests/test_pmultigrid.py, linear elasticity in a clamped unit cube
+from 2 187 to 14 739 DOFs, to 1e-10: on tetrahedra this two-level method takes 19 -> 19
+iterations, GAMG on the P2 matrix 25 -> 27; on Q2 hexahedra 15 -> 17 against 23 -> 24).
+
+The options are the preset's (physics/linear.py, ``pmg``); :class:`PMultigrid` supplies
+what options cannot: the interpolation and the coarse operator with its modes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from .. import compat
+
+
+def rigid_body_modes(V) -> PETSc.NullSpace:
+    """Translations and infinitesimal rotations, the near-nullspace for GAMG."""
+    gdim = V.mesh.geometry.dim
+    index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
+    n = index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n]
+    modes = np.zeros((6 if gdim == 3 else 3, n, bs))
+    for i in range(gdim):
+        modes[i, :, i] = 1.0
+    if gdim == 3:
+        modes[3, :, 0], modes[3, :, 1] = -x[:, 1], x[:, 0]
+        modes[4, :, 0], modes[4, :, 2] = x[:, 2], -x[:, 0]
+        modes[5, :, 2], modes[5, :, 1] = x[:, 1], -x[:, 2]
+    else:
+        modes[2, :, 0], modes[2, :, 1] = -x[:, 1], x[:, 0]
+    vecs: list[PETSc.Vec] = []
+    for mode in modes:  # Gram-Schmidt with PETSc's (global) products: dolfinx.la's
+        vec = compat.index_map_vector(index_map, bs)  # orthonormalize takes
+        vec.array[:] = mode.ravel()  # PETSc vectors in 0.5.2, its own in 0.9
+        for other in vecs:
+            vec.axpy(-vec.dot(other), other)
+        vec.normalize()
+        vecs.append(vec)
+    return PETSc.NullSpace().create(vectors=vecs)
+
+
+# Up to this many coarse (P1) DOFs the coarse level is factorised (MUMPS LDL^T) rather than
+# solved by GAMG: exact there, it leaves the iterations to the smoother alone, and its factor
+# is small beside the P2 one a direct solve of the state would need (the P1 problem has an
+# eighth of the unknowns and sparser rows).  On a thin P2 beam, where aggregation of the
+# locking P1 operator is poor, the two-level method took 82 MINRES iterations with the
+# factorised coarse level against 324 with GAMG (1 953 DOFs); on a few dozen equations
+# GAMG's own coarsest level can be singular.
+DIRECT_COARSE_DOFS = 50_000
+
+
+class PMultigrid:
+    """The coarse space of the displacement space ``V`` (degree 2) and its interpolation."""
+
+    def __init__(self, V, direct_coarse_dofs: int = DIRECT_COARSE_DOFS):
+        if compat.space_degree(V) != 2:
+            raise ValueError("the p-multigrid coarsens P2 (Q2) displacements to P1 (Q1)")
+        self.coarse_space = compat.vector_space(V.mesh, 1)
+        self.P = compat.interpolation_matrix(self.coarse_space, V)
+        self.P.assemble()
+        self._modes = rigid_body_modes(self.coarse_space)
+        self._coarse: PETSc.Mat | None = None
+        self.direct_coarse = self.coarse_size <= direct_coarse_dofs
+
+    def coarse_options(self) -> dict[str, object]:
+        """The options (without a prefix) that replace the preset's GAMG on the coarse level
+        by MUMPS's LDL^T where the coarse problem is small (:data:`DIRECT_COARSE_DOFS`)."""
+        if not self.direct_coarse:
+            return {}
+        return {"mg_coarse_pc_type": "cholesky", "mg_coarse_pc_factor_mat_solver_type": "mumps",
+                "mg_coarse_mat_mumps_icntl_14": 30}
+
+    @property
+    def coarse_size(self) -> int:
+        return int(self.P.getSize()[1])
+
+    def coarse_operator(self, A: PETSc.Mat) -> PETSc.Mat:
+        """P^T A P of the assembled ``A``, in the matrix of the previous call where there
+        is one (its sparsity is the same), with the rigid-body modes of the P1 nodes."""
+        if self._coarse is None:
+            self._coarse = A.PtAP(self.P)
+            self._coarse.setNearNullSpace(self._modes)
+        else:
+            A.PtAP(self.P, self._coarse)
+        return self._coarse
+
+    def prepare(self, ksp: PETSc.KSP, A: PETSc.Mat) -> None:
+        """Before ``ksp`` (preset ``pmg``, its options read) solves with the tangent ``A``
+        just assembled: the interpolation (again: a reset KSP forgets it) and the coarse
+        operator of ``A``."""
+        pc = ksp.getPC()
+        if pc.getType() != PETSc.PC.Type.MG:  # the exact fallback's KSP
+            return
+        pc.setMGInterpolation(1, self.P)
+        pc.getMGCoarseSolve().setOperators(self.coarse_operator(A))
+
+    def destroy(self) -> None:
+        for mat in (self.P, self._coarse):
+            if mat is not None:
+                mat.destroy()
+        self._coarse = None
