@@ -1,5 +1,5 @@
 """BDDC on the prestressed tangent of the bench's beam, against MUMPS's LDL^T
-(docs/PERFORMANCE.md, "Domain decomposition (BDDC) and a p-multigrid, tried and not kept").
+(docs/PERFORMANCE.md, "Domain decomposition (BDDC), tried and not kept").
 
     mpirun -n 2 .venv/bin/python benchmarks/bddc_tangent.py [--size 0.025]
         [--option KEY=VALUE ...]

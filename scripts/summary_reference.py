@@ -114,6 +114,8 @@ MEANING: dict[str, str] = {
     "linear_solver.state_fallbacks": "of them, state solves",
     "linear_solver.adjoint_fallbacks": "of them, adjoint solves",
     "linear_solver.reasons": "PETSc's reasons of the first fallbacks",
+    "linear_solver.reason": "why the preset: named, or `auto`'s rule with the model's size "
+                            "and cells across (physics/linear.py)",
     "linear_solver.krylov_solves": "an iterative preset's (`mumps_blr`, `gamg`, `hypre`, "
                                    "`pmg`) state Newton steps solved by it (0 for a "
                                    "factorisation)",

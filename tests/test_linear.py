@@ -204,6 +204,61 @@ def test_auto_chooses_lu_for_small_models_ldlt_for_large_3d_ones_out_of_core_bey
     assert linear.choose("hypre", 100, 3) in ("hypre", "mumps_ldlt")
 
 
+def test_auto_gives_a_large_solid_body_of_degree_two_to_the_p_multigrid():
+    big, solid = linear.AUTO_PMG_DOFS, linear.AUTO_PMG_ACROSS
+    assert linear.choose("auto", big, 3, solid) == "pmg"
+    assert linear.choose("auto", big - 1, 3, solid) == "mumps_ldlt"  # small: the factor
+    assert linear.choose("auto", big, 3, 0.99 * solid) == "mumps_ldlt"  # a wall
+    assert linear.choose("auto", big, 3, None) == "mumps_ldlt"  # degree 1, or mixed
+    assert linear.choose("auto", 2 * linear.AUTO_OOC_DOFS, 3, None) == "mumps_ooc"
+    assert linear.choose("mumps", big, 3, solid) == "mumps"
+    assert linear.why("auto", "pmg", 206_763, 3, 5.94) == (
+        "auto: 206 763 state DOFs, 5.9 cells across: a solid body of degree 2 (from 100 000 "
+        "DOFs and 4 cells across)")
+    assert linear.why("auto", "mumps_ldlt", 149_379, 3, 1.6) == (
+        "auto: 149 379 state DOFs, 1.6 cells across: factorised (the p-multigrid takes a "
+        "body of degree 2 displacements from 100 000 DOFs and 4 cells across)")
+    assert linear.why("pmg", "pmg", 10, 3, None) == "named by solver.linear"
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("cell, across", [("hex", lambda n: n / 3),
+                                          ("tet", lambda n: n / 3 / 2 ** (1 / 6))])
+def test_a_cube_is_a_third_of_its_cells_across(cell, across):
+    """2 V / A over the cell size: a unit cube of n^3 hexahedra is n/3 across, of 6 n^3
+    tetrahedra (each of volume 1/(6 n^3), the regular one's edge 2^(1/6)/n) n/(3 2^(1/6))."""
+    import dolfinx
+
+    from shapegrowth.physics.pmultigrid import elements_across
+
+    kind = {"hex": dolfinx.mesh.CellType.hexahedron, "tet": dolfinx.mesh.CellType.tetrahedron}
+    for n in (3, 6):
+        mesh = dolfinx.mesh.create_box(MPI.COMM_WORLD, [np.zeros(3), np.ones(3)], [n, n, n],
+                                       kind[cell])
+        assert elements_across(mesh) == pytest.approx(across(n), rel=1e-12)
+
+
+@pytest.mark.mpi
+def test_auto_says_why_in_the_summary_and_takes_the_p_multigrid_for_a_solid_body(
+        monkeypatch, shared_tmp):
+    """The thresholds lowered to the tiny models (1 000 DOFs, one cell across): the P2 cube
+    (1.2 cells across at mesh size 0.2) goes to the p-multigrid, the thin beam (0.6) to the
+    factorisation."""
+    monkeypatch.setattr(linear, "AUTO_PMG_DOFS", 1000)
+    monkeypatch.setattr(linear, "AUTO_PMG_ACROSS", 1.0)
+    for config, sets, preset in ((CUBE, ["model.degree=2", "mesh.size=0.2",
+                                         "boundary.clamp=x1_min",
+                                         "growth.eigenvalues.initial=[1.1, 1.0, 1.0]"], "pmg"),
+                                 (BEND, [], "mumps")):
+        out = shared_tmp / preset
+        assert run_cli("solve", config, "--out", out, "-q",
+                       *[x for s in sets for x in ("--set", s)]) == 0
+        use = read_json(out / "summary.json")["linear_solver"]
+        assert use["preset"] == preset and use["fallbacks"] == 0
+        assert use["reason"].startswith("auto: ") and "cells across" in use["reason"]
+        assert ("solid body" in use["reason"]) == (preset == "pmg")
+
+
 class _Said(logging.Handler):
     """The records of one logger, whatever the CLI's logging set up before (caplog sees
     only what propagates to the root)."""

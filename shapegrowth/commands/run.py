@@ -131,7 +131,7 @@ def run_optimization(cfg, out: Path, resume: bool = False,
             with timer("io"):
                 fabrication = write_design(out, cfg, done.rf, verified)
     summary = dataclasses.replace(summarise(cfg, done, settled, verified, timer, resume),
-                                  linear_solver=linear_use(done.model.state.newton.linear, tally),
+                                  linear_solver=linear_use(done.model.state.newton, tally),
                                   stability=stability, fabrication=fabrication)
     io.write_json(out / "summary.json", summary.to_json())
     report_run(summary, settled, out, done.history, cfg.optimizer.ftol_window)

@@ -16,6 +16,7 @@ from ..io import files as io
 from ..io.summary import Dofs, LinearSolverUse, Probe, RunSummary, SolveMeasures
 from ..physics import linear
 from ..physics.model import ForwardModel
+from ..physics.newton import NewtonSolver
 from ..physics.paths import solve_watched
 from ..physics.stability import describe
 from ..physics.state import SolveReport
@@ -49,10 +50,12 @@ def solve_forward(cfg: Config, out: Path,
         return _solve_forward(cfg, out, probe_texts, tally)
 
 
-def linear_use(preset: str, tally: linear.FallbackTally) -> LinearSolverUse:
-    """summary.json's ``linear_solver``: the preset and the fallbacks counted in ``tally``."""
-    return LinearSolverUse(preset, tally.state + tally.adjoint, tally.state, tally.adjoint,
-                           tuple(tally.reasons), krylov_solves=tally.krylov_solves,
+def linear_use(newton: NewtonSolver, tally: linear.FallbackTally) -> LinearSolverUse:
+    """summary.json's ``linear_solver``: the preset of the model's Newton solver, why, and the
+    fallbacks and Krylov iterations counted in ``tally``."""
+    return LinearSolverUse(newton.linear, tally.state + tally.adjoint, tally.state,
+                           tally.adjoint, tuple(tally.reasons), reason=newton.linear_reason,
+                           krylov_solves=tally.krylov_solves,
                            krylov_iterations=tally.krylov_iterations)
 
 
@@ -110,7 +113,7 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
         probes=tuple(Probe(tuple(map(float, p[:n_probe])), tuple(map(float, d)))
                      for p, d in zip(probes, deformed)))
     summary = base_summary(cfg, model, report, status, timer, solve=measures,
-                           linear_solver=linear_use(model.state.newton.linear, tally),
+                           linear_solver=linear_use(model.state.newton, tally),
                            stability=stability, **shape)
     # summary.json before the fields: a writer that fails (dolfinx 0.5.2's XDMF pull-back on
     # badly distorted curved cells) leaves the numbers

@@ -164,7 +164,8 @@ class SolverConfig:
         "compression under GMRES), gamg or hypre (algebraic multigrid with the rigid-body "
         "modes, under GMRES, for chunky bodies), pmg (a p-multigrid under MINRES for "
         "model.degree 2: P2 to P1, the P1 level factorised or by GAMG), auto (chosen by "
-        "the model's size: LU, LDL^T from 20 000 3D state DOFs, out of core from 500 000); a "
+        "the model's size and shape: LU, LDL^T from 20 000 3D state DOFs, out of core from "
+        "500 000, pmg for a solid body of degree 2, 4 cells across, from 100 000); a "
         "preset's failed solve is done again with mumps, counted in summary.json "
         "linear_solver (measurements: docs/PERFORMANCE.md, \"Linear solvers\")", "auto",
         choices=("mumps", "mumps_ldlt", "mumps_ooc", "mumps_blr", "gamg", "hypre", "pmg",

@@ -53,8 +53,8 @@ class OptimizationMeasures:
 
 @dataclass(frozen=True)
 class LinearSolverUse:
-    """``solver.linear`` as used: the preset (``auto`` resolved on the run's last model), the
-    solves that fell back to the exact factorisation (physics/linear.py), and an
+    """``solver.linear`` as used: the preset (``auto`` resolved on the run's last model), why,
+    the solves that fell back to the exact factorisation (physics/linear.py), and an
     iterative preset's Newton steps with their Krylov iterations."""
 
     preset: str
@@ -62,6 +62,7 @@ class LinearSolverUse:
     state_fallbacks: int
     adjoint_fallbacks: int
     reasons: tuple[str, ...] = ()
+    reason: str = ""
     krylov_solves: int = 0
     krylov_iterations: int = 0
 

@@ -35,8 +35,10 @@ Presets (the PETSc options of each, without a prefix, are in :func:`preset_optio
     Jacobi, the Galerkin P1 (Q1) operator solved by GAMG with the P1 nodes' rigid-body
     modes; for chunky bodies of degree 2.
 
-``auto`` picks one from the model's kind and size (:func:`choose`): LU for 2D models and small
-3D ones, LDL^T from :data:`AUTO_LDLT_DOFS` state DOFs, out of core from :data:`AUTO_OOC_DOFS`.
+``auto`` picks one from the model's kind, size and shape (:func:`choose`): LU for 2D models
+and small 3D ones, the p-multigrid for a solid 3D body of degree 2 from :data:`AUTO_PMG_DOFS`
+state DOFs (:func:`solid`), else LDL^T from :data:`AUTO_LDLT_DOFS`, out of core from
+:data:`AUTO_OOC_DOFS`; :func:`why` says which rule chose.
 A failed linear solve (a Krylov breakdown, divergence, a zero pivot) is logged in one line with
 PETSc's reason and repeated with ``mumps`` (:data:`EXACT`); after :data:`GIVE_UP_AFTER` such
 failures in a row, a model's state solves use ``mumps`` (said in one line).  The fallbacks are
@@ -88,6 +90,13 @@ AUTO_LDLT_DOFS = 20_000
 # 1.3 GB), and above it the factor outgrows the rest of the model (docs/PERFORMANCE.md,
 # "Out of core").
 AUTO_OOC_DOFS = 500_000
+# ... and from this many on, a solid 3D body of degree 2 (at least AUTO_PMG_ACROSS cells
+# across: physics/pmultigrid.py, elements_across) goes to the p-multigrid: on a clamped P2
+# cube of 206 763 DOFs it took 0.32x the LDL^T's time and 0.59x its peak memory, with 26
+# MINRES iterations per Newton step; on the thin beam (a wall two cells thick) it failed,
+# and fell back (docs/PERFORMANCE.md, "A p-multigrid for solid bodies").
+AUTO_PMG_DOFS = 100_000
+AUTO_PMG_ACROSS = 4.0
 
 
 def preset_options(name: str, role: str) -> dict[str, object]:
@@ -237,13 +246,16 @@ def has_package(name: str) -> bool:
     return bool(PETSc.Sys.hasExternalPackage(name))
 
 
-def choose(requested: str, dofs: int, dim: int) -> str:
+def choose(requested: str, dofs: int, dim: int, across: float | None = None) -> str:
     """The preset ``requested`` stands for on a model of ``dofs`` state DOFs in ``dim``
-    dimensions: ``auto`` resolved (measured: docs/PERFORMANCE.md, "Linear solvers"), and a
-    preset whose package this PETSc lacks replaced, with one line, by the nearest one it has."""
+    dimensions, ``across`` cells across where the p-multigrid could take it (a 3D body of
+    degree 2 displacements alone; physics/pmultigrid.py, :func:`elements_across`):
+    ``auto`` resolved (measured: docs/PERFORMANCE.md, "Linear solvers"), and a preset whose
+    package this PETSc lacks replaced, with one line, by the nearest one it has."""
     name = requested
     if requested == "auto":
-        name = ("mumps" if dofs < AUTO_LDLT_DOFS or dim < 3 else
+        name = ("mumps" if dim < 3 else "pmg" if solid(dofs, across) else
+                "mumps" if dofs < AUTO_LDLT_DOFS else
                 "mumps_ldlt" if dofs < AUTO_OOC_DOFS else "mumps_ooc")
     missing = missing_package(name)
     if missing is not None:
@@ -257,6 +269,37 @@ def choose(requested: str, dofs: int, dim: int) -> str:
     if name == "mumps_ooc":
         out_of_core_directory()
     return name
+
+
+def solid(dofs: int, across: float | None) -> bool:
+    """Whether ``auto`` gives a model of ``dofs`` state DOFs, ``across`` cells across, to the
+    p-multigrid: large enough that a factor costs more than its iterations, and thick enough
+    that its P1 level does not lock (:data:`AUTO_PMG_DOFS`, :data:`AUTO_PMG_ACROSS`)."""
+    return across is not None and dofs >= AUTO_PMG_DOFS and across >= AUTO_PMG_ACROSS
+
+
+def _count(n: int) -> str:
+    return f"{n:,}".replace(",", " ")
+
+
+def why(requested: str, chosen: str, dofs: int, dim: int, across: float | None) -> str:
+    """Why ``requested`` became ``chosen`` on a model of ``dofs`` state DOFs in ``dim``
+    dimensions, ``across`` cells across (None: not a body the p-multigrid takes), in one line
+    (summary.json ``linear_solver.reason``)."""
+    if requested != "auto":
+        return "named by solver.linear"
+    size = f"{_count(dofs)} state DOFs"
+    shape = "" if across is None else f", {across:.1f} cells across"
+    if dim < 3:
+        return f"auto: {size}, a {dim}D model"
+    if chosen == "pmg":
+        return (f"auto: {size}{shape}: a solid body of degree 2 (from {_count(AUTO_PMG_DOFS)} "
+                f"DOFs and {AUTO_PMG_ACROSS:g} cells across)")
+    if chosen == "mumps":
+        return f"auto: {size}{shape}: LU below {_count(AUTO_LDLT_DOFS)} DOFs"
+    return (f"auto: {size}{shape}: factorised (the p-multigrid takes a body of degree 2 "
+            f"displacements from {_count(AUTO_PMG_DOFS)} DOFs and {AUTO_PMG_ACROSS:g} cells "
+            "across)")
 
 
 # ---- fallbacks, counted per run ------------------------------------------------------------

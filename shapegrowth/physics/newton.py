@@ -17,7 +17,7 @@ from ..config import Config, ConfigError
 from . import linear
 from .linear import preset_options
 from .options import SolverOptions
-from .pmultigrid import PMultigrid, rigid_body_modes
+from .pmultigrid import PMultigrid, elements_across, rigid_body_modes
 
 
 def solver_options(cfg: Config, force_scale: float, linear: str) -> dict[str, object]:
@@ -96,8 +96,14 @@ class NewtonSolver:
         self.role, self.comm = role, comm
         self._problem = weakref.ref(problem)
         self.snes = PETSc.SNES().create(comm)
-        self.linear = linear.choose(cfg.solver.linear, compat.global_size(V),
-                                    V.mesh.geometry.dim)
+        dofs, dim = compat.global_size(V), V.mesh.geometry.dim
+        # cells across, where auto could give the body to the p-multigrid: 3D, degree 2
+        # displacements alone (a mixed unknown's block size is 1), large enough
+        across = (elements_across(V.mesh)
+                  if cfg.solver.linear == "auto" and dim == 3 and dofs >= linear.AUTO_PMG_DOFS
+                  and V.dofmap.index_map_bs == 3 and compat.space_degree(V) == 2 else None)
+        self.linear = linear.choose(cfg.solver.linear, dofs, dim, across)
+        self.linear_reason = linear.why(cfg.solver.linear, self.linear, dofs, dim, across)
         # the p-multigrid's interpolation and coarse operator (physics/pmultigrid.py)
         self.pmg = PMultigrid(V) if self.linear == "pmg" else None
         defaults = solver_options(cfg, force_scale, self.linear)

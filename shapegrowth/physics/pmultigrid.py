@@ -16,7 +16,10 @@ what options cannot: the interpolation and the coarse operator with its modes.
 
 from __future__ import annotations
 
+import dolfinx
 import numpy as np
+import ufl
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import compat
@@ -56,6 +59,21 @@ def rigid_body_modes(V) -> PETSc.NullSpace:
 # factorised coarse level against 324 with GAMG (1 953 DOFs); on a few dozen equations
 # GAMG's own coarsest level can be singular.
 DIRECT_COARSE_DOFS = 50_000
+
+
+def elements_across(mesh) -> float:
+    """How many cells a 3D body is across: 2 V / A (its thickness, for a wall; a third of
+    the side, for a cube) over the cells' size (the edge of a regular tetrahedron, or of a
+    cube, of the mean cell volume).  ``solver.linear: auto`` sends a body of degree 2 to the
+    p-multigrid where it is solid by this measure (physics/linear.py, :func:`choose`)."""
+    one = compat.constant(mesh, 1.0)
+    volume, area = (mesh.comm.allreduce(
+        dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * measure)), op=MPI.SUM)
+        for measure in (ufl.dx(domain=mesh), ufl.ds(domain=mesh)))
+    cells = mesh.topology.index_map(mesh.topology.dim).size_global
+    per_cell = volume / cells
+    regular = 6 * np.sqrt(2) if mesh.topology.cell_type.name == "tetrahedron" else 1.0
+    return float(2 * volume / area / np.cbrt(regular * per_cell))
 
 
 class PMultigrid:
