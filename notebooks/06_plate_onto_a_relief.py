@@ -117,8 +117,11 @@ comm.barrier()
 cfg = load_config(config)
 result = optimize(cfg, OUT / "run")
 s_ = result.summary
+first = s_.hausdorff_initial / s_.target_size
+# what this notebook shows, checked wherever it runs (`make notebooks`, serially and on two
+# ranks): within the 30 iterations the exact distance, on this mesh and verified, halves
+assert s_.hausdorff_final / s_.target_size < first / 2 and s_.verified.relative < first / 2
 if rank0:
-    first = s_.hausdorff_initial / s_.target_size
     print(f"{s_.status} after {s_.iterations} iterations in {s_.wall_time_s:.0f} s")
     print(f"verified shape error {100 * s_.verified.relative:.2f} % of the relief's size (the "
           "best growth grown from rest on the mesh refined once, surface to surface)")
