@@ -67,6 +67,7 @@ in_root "cd $SRC && pip install -q --no-deps --no-build-isolation -e . \
 print(\"dolfinx\", dolfinx.__version__, \"ufl\", ufl.__version__, \"basix\", basix.__version__, \
 \"PETSc\", PETSc.Sys.getVersion())' \
   && mypy \
-  && python -m pytest -q -p no:cacheprovider -m 'not slow' $TESTS $MPI_RUNS"
+  && OPENBLAS_NUM_THREADS=1 python -m pytest -q -p no:cacheprovider -n 2 --dist loadfile \
+       -m 'not slow' $TESTS $MPI_RUNS"
 # (pytest's 5: no MPI test among the files asked for)
 echo "test-dolfinx011: passed on dolfinx 0.11 in $(( $(date +%s) - start )) s"
