@@ -24,7 +24,7 @@ ifneq ($(OPENBLAS_CORETYPE),)
 export OPENBLAS_CORETYPE
 endif
 
-.PHONY: reachable setup run bend test test-all test-hex test-hex-serial notebooks-mpi test-debian13 test-dolfinx011 lint test-serial test-mpi test-serial-slow test-mpi-slow notebooks bench reproduce reproduce-twice reproduce-models reproduce-cube reproduce-compare reference-docs clean help
+.PHONY: reachable setup run bend test test-all test-hex notebooks-mpi test-debian13 test-dolfinx011 lint test-serial test-mpi test-serial-slow test-mpi-slow notebooks bench reproduce reproduce-twice reproduce-models reproduce-cube reproduce-compare reference-docs clean help
 
 help:
 	@echo "make run    - scene 1 end to end on $(NP) ranks, verified on the 3D beam (installs what is missing)"
@@ -70,13 +70,10 @@ test-all: setup
 # The fast tier again with every config on quadrilaterals and hexahedra (mesh.cells: hex
 # where a test does not name its cells; tests/conftest.py), serially and on $(NP) ranks; the
 # tests marked `simplex` assert something of simplices and are left out
-test-hex: test-hex-serial
+test-hex: setup
+	SHAPEGROWTH_TEST_CELLS=hex SHAPEGROWTH_FAST_LIMIT_S=0 $(SERIAL) -m "not slow and not simplex" tests
 	@SHAPEGROWTH_TEST_CELLS=hex SHAPEGROWTH_FAST_LIMIT_S=0 OPENBLAS_NUM_THREADS=1 timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(PYTEST) --color=no -m "mpi and not slow and not simplex" tests \
 	  || { tail -n 40 .cache/rank-*.log; exit 1; }
-
-# (CI runs the serial pass alone)
-test-hex-serial: setup
-	SHAPEGROWTH_TEST_CELLS=hex SHAPEGROWTH_FAST_LIMIT_S=0 $(SERIAL) -m "not slow and not simplex" tests
 
 # The whole suite again inside a Debian 13 root (dolfinx 0.9.0, PETSc 3.22), built once and
 # cached in ~/.cache/shapegrowth/debian13; skipped with one line where it cannot run

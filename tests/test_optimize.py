@@ -45,7 +45,8 @@ def test_reachable_target_is_found(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("algorithm", ["mma", "slsqp", "lbfgs"])
+# the three algorithms are NLopt's behind one driver (optim/driver.py): two stand for them
+@pytest.mark.parametrize("algorithm", ["mma", "lbfgs"])
 def test_serial_and_two_ranks_give_the_same_history(algorithm, tmp_path):
     runs = []
     for ranks in (1, 2):
@@ -80,11 +81,10 @@ def test_an_alpha_schedule_sharpens_stage_by_stage(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("rtol_far, cells, linear, extra", [
-    # mumps_ldlt is resumed below on hexahedra (mixed) and as mumps_ooc (its factor on disk)
+    # the checkpoint holds the design and the optimiser's state, not the linear solver's:
+    # one factorisation besides auto's LU (LDL^T, on a mixed body on hexahedra), where the
+    # iterative and out-of-core presets' states are LU's (tests/test_linear.py)
     (None, "simplex", "auto", ()), (1e-6, "simplex", "auto", ()), (None, "hex", "auto", ()),
-    (None, "simplex", "mumps_ooc", ()),
-    (None, "simplex", "mumps_blr", ()),
-    (None, "simplex", "auto", ("material.incompressible=true",)),
     (None, "hex", "mumps_ldlt", ("material.formulation=mixed",))])
 def test_resume_after_sigkill_ends_identical(rtol_far, cells, linear, extra, tmp_path):
     """Killed after 3 checkpoints and resumed, a run ends with the uninterrupted one's
