@@ -105,6 +105,22 @@ def test_the_p_multigrid_grows_a_clamped_cube_as_lu_does(shared_tmp):
     assert read_json(shared_tmp / "mumps" / "summary.json")["linear_solver"]["krylov_solves"] == 0
 
 
+@pytest.mark.mpi
+def test_taylor_rate_with_the_p_multigrid_on_a_solid_cube(shared_tmp):
+    """The state, a fresh adjoint and the filter with the p-multigrid preset on a clamped P2
+    (Q2) cube against a bent target: the reduced gradient's Taylor rate stays above 1.9
+    (measured: 2.00), with no solve falling back to LU."""
+    with linear.counting() as tally:
+        assert run_cli("gradcheck", CUBE, "--out", shared_tmp, "-q",
+                       "--set", "model.degree=2", "--set", "solver.linear=pmg",
+                       "--set", "solver.adjoint_reuse=false", "--set", "boundary.clamp=x1_min",
+                       "--set", "target.map=[x1, x2, 'x3 + 0.1*x1**2']",
+                       "--set", "growth.eigenvalues.initial=[1.1, 1.0, 0.95]") == 0
+    report = read_json(shared_tmp / "gradcheck.json")
+    assert report["min_rate"] > 1.9, report["rates"]
+    assert tally.state == tally.adjoint == 0 and tally.krylov_solves > 0
+
+
 def test_the_p_multigrid_refuses_a_model_of_degree_one():
     with pytest.raises(ConfigError) as err:
         load(CUBE, ["solver.linear=pmg"])
