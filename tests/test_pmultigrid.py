@@ -19,7 +19,7 @@ from shapegrowth.physics.pmultigrid import PMultigrid, rigid_body_modes
 CELLS = {"tet": dolfinx.mesh.CellType.tetrahedron, "hex": dolfinx.mesh.CellType.hexahedron}
 
 
-def _elasticity(n: int, cell: str):
+def clamped_cube_elasticity(n: int, cell: str):
     """The P2 (Q2) stiffness of a unit cube clamped on x = 0, n cells a side, and a load."""
     mesh = dolfinx.mesh.create_box(MPI.COMM_WORLD, [np.zeros(3), np.ones(3)], [n, n, n],
                                    CELLS[cell])
@@ -49,7 +49,7 @@ def _elasticity(n: int, cell: str):
     return V, A, b
 
 
-def _iterations(V, A, b, preset: str, direct_coarse_dofs: int = 0) -> tuple[int, PETSc.Vec]:
+def krylov_iterations(V, A, b, preset: str, direct_coarse_dofs: int = 0) -> tuple[int, PETSc.Vec]:
     """Krylov iterations to a relative residual of 1e-10 with ``preset``'s state options (the
     p-multigrid's coarse level factorised up to ``direct_coarse_dofs``, GAMG beyond)."""
     opts = PETSc.Options()
@@ -84,7 +84,7 @@ def _iterations(V, A, b, preset: str, direct_coarse_dofs: int = 0) -> tuple[int,
 @pytest.mark.parametrize("cell", ["tet", "hex"])
 def test_the_prolongation_interpolates_p1_into_p2_exactly(cell):
     """P maps the nodal values of a linear field to the P2 (Q2) field's nodal values."""
-    V, _A, _b = _elasticity(2, cell)
+    V, _A, _b = clamped_cube_elasticity(2, cell)
     pmg = PMultigrid(V)
     coarse = dolfinx.fem.Function(pmg.coarse_space)
     fine = dolfinx.fem.Function(V)
@@ -112,12 +112,12 @@ def test_the_iterations_stay_flat_as_the_mesh_is_refined(cell):
     the same matrix, no more with the coarse level factorised, and the solution LU's to 1e-8."""
     its = {}
     for n in (4, 8):
-        V, A, b = _elasticity(n, cell)
-        its[n], x = _iterations(V, A, b, "pmg")
-        gamg, _ = _iterations(V, A, b, "gamg")
-        _, exact = _iterations(V, A, b, "mumps")
+        V, A, b = clamped_cube_elasticity(n, cell)
+        its[n], x = krylov_iterations(V, A, b, "pmg")
+        gamg, _ = krylov_iterations(V, A, b, "gamg")
+        _, exact = krylov_iterations(V, A, b, "mumps")
         assert its[n] < gamg
         # the coarse level factorised (where it is small: physics/pmultigrid.py)
-        assert _iterations(V, A, b, "pmg", direct_coarse_dofs=10**9)[0] <= its[n]
+        assert krylov_iterations(V, A, b, "pmg", direct_coarse_dofs=10**9)[0] <= its[n]
         assert (x - exact).norm() <= 1e-8 * exact.norm()
     assert its[8] <= 1.3 * its[4], its
