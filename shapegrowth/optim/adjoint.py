@@ -38,7 +38,7 @@ from .. import compat
 from ..errors import AdjointSolveError
 from ..physics import linear
 from ..physics.options import SolverOptions
-from ..physics.pmultigrid import PMultigrid, rigid_body_modes
+from ..physics.pmultigrid import rigid_body_modes
 from ..physics.state import StateProblem
 from ..shape.clouds import assemble
 
@@ -58,8 +58,8 @@ class AdjointProblem:
         self.rhs = self.A.createVecRight()
         self.ksp = PETSc.KSP().create(state.domain.mesh.comm)
         self.linear = state.newton.linear  # the state's preset, resolved
-        # the p-multigrid's coarse operator is this solver's own (physics/pmultigrid.py)
-        self.pmg = PMultigrid(state.V) if self.linear == "pmg" else None
+        # the state's p-multigrid, its coarse operator this solver's own (physics/pmultigrid.py)
+        self.pmg = state.newton.pmg.sibling() if state.newton.pmg is not None else None
         defaults = linear.preset_options(self.linear, self.role)
         if self.pmg is not None:
             defaults.update(self.pmg.coarse_options())

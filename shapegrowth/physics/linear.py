@@ -32,8 +32,8 @@ Presets (the PETSc options of each, without a prefix, are in :func:`preset_optio
     under GMRES.
 ``pmg``
     a p-multigrid (physics/pmultigrid.py) under MINRES: P2 (Q2) smoothed by Chebyshev with
-    Jacobi, the Galerkin P1 (Q1) operator solved by GAMG with the P1 nodes' rigid-body
-    modes; for chunky bodies of degree 2.
+    Jacobi, the Galerkin P1 (Q1) operator with the P1 nodes' rigid-body modes factorised
+    where it is small and solved by GAMG beyond; for solid bodies of degree 2.
 
 ``auto`` picks one from the model's kind, size and shape (:func:`choose`): LU for 2D models
 and small 3D ones, the p-multigrid for a solid 3D body of degree 2 from :data:`AUTO_PMG_DOFS`
@@ -145,7 +145,8 @@ def preset_options(name: str, role: str) -> dict[str, object]:
 
 # The p-multigrid (physics/pmultigrid.py) under MINRES: two levels, the coarse operator set
 # by the solver (pc_mg_galerkin none), the fine level smoothed by two Chebyshev steps with
-# Jacobi, the coarse level one V-cycle of GAMG tuned as the gamg preset.  MINRES, not CG: a
+# Jacobi, the coarse level one V-cycle of GAMG tuned as the gamg preset (factorised instead
+# where it is small: PMultigrid.coarse_options).  MINRES, not CG: a
 # Newton iterate's tangent can be indefinite where the state is stable (the tiny cube under
 # dead traction: CG stopped on "indefinite matrix", with Jacobi alone after 266 iterations
 # too), and MINRES takes a symmetric indefinite operator with the V-cycle, which is

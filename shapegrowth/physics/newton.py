@@ -105,7 +105,7 @@ class NewtonSolver:
         self.linear = linear.choose(cfg.solver.linear, dofs, dim, across)
         self.linear_reason = linear.why(cfg.solver.linear, self.linear, dofs, dim, across)
         # the p-multigrid's interpolation and coarse operator (physics/pmultigrid.py)
-        self.pmg = PMultigrid(V) if self.linear == "pmg" else None
+        self.pmg = PMultigrid.of(V) if self.linear == "pmg" else None
         defaults = solver_options(cfg, force_scale, self.linear)
         if self.pmg is not None:
             defaults.update(self.pmg.coarse_options())
@@ -144,9 +144,6 @@ class NewtonSolver:
                 ksp.setFromOptions()
             self._exact = (ksp, options)
         return self._exact
-
-    def _exact_ksp_or_none(self) -> PETSc.KSP | None:
-        return None if self._exact is None else self._exact[0]
 
     def solve(self, reference: float | None = None,
               rtol: float | None = None) -> tuple[bool, int, str]:
@@ -228,7 +225,8 @@ class NewtonSolver:
                 self.snes.setTolerances(rtol=tolerances[0], atol=tolerances[1])
         reason = linear.reason_of(self.snes)
         its = self.snes.getIterationNumber()
-        if self.linear in linear.ITERATIVE and self.snes.getKSP() is not self._exact_ksp_or_none():
+        by_preset = self._exact is None or self.snes.getKSP() is not self._exact[0]
+        if self.linear in linear.ITERATIVE and by_preset:
             linear.count_krylov(its, self.snes.getLinearSolveIterations())
         problem.w.x.scatter_forward()
         ok = self.comm.allreduce(

@@ -77,17 +77,31 @@ def elements_across(mesh) -> float:
 
 
 class PMultigrid:
-    """The coarse space of the displacement space ``V`` (degree 2) and its interpolation."""
+    """The coarse space of a displacement space of degree 2, its interpolation ``P`` and the
+    coarse space's rigid-body modes (:meth:`of` makes them), and the coarse operator of one
+    solver's tangent."""
 
-    def __init__(self, V, direct_coarse_dofs: int = DIRECT_COARSE_DOFS):
+    def __init__(self, coarse_space, P: PETSc.Mat, modes: PETSc.NullSpace, direct_coarse: bool):
+        self.coarse_space, self.P, self._modes = coarse_space, P, modes
+        self.direct_coarse = direct_coarse
+        self._coarse: PETSc.Mat | None = None
+
+    @classmethod
+    def of(cls, V, direct_coarse_dofs: int = DIRECT_COARSE_DOFS) -> PMultigrid:
+        """The p-multigrid of the displacement space ``V`` (degree 2)."""
         if compat.space_degree(V) != 2:
             raise ValueError("the p-multigrid coarsens P2 (Q2) displacements to P1 (Q1)")
-        self.coarse_space = compat.vector_space(V.mesh, 1)
-        self.P = compat.interpolation_matrix(self.coarse_space, V)
-        self.P.assemble()
-        self._modes = rigid_body_modes(self.coarse_space)
-        self._coarse: PETSc.Mat | None = None
-        self.direct_coarse = self.coarse_size <= direct_coarse_dofs
+        coarse_space = compat.vector_space(V.mesh, 1)
+        P = compat.interpolation_matrix(coarse_space, V)
+        P.assemble()
+        return cls(coarse_space, P, rigid_body_modes(coarse_space),
+                   int(P.getSize()[1]) <= direct_coarse_dofs)
+
+    def sibling(self) -> PMultigrid:
+        """Another solver's multigrid on the same space (the adjoint's, beside the state's):
+        the coarse space, the interpolation and the modes shared, the coarse operator its
+        own (each solver's tangent is its own)."""
+        return PMultigrid(self.coarse_space, self.P, self._modes, self.direct_coarse)
 
     def coarse_options(self) -> dict[str, object]:
         """The options (without a prefix) that replace the preset's GAMG on the coarse level
@@ -120,9 +134,3 @@ class PMultigrid:
             return
         pc.setMGInterpolation(1, self.P)
         pc.getMGCoarseSolve().setOperators(self.coarse_operator(A))
-
-    def destroy(self) -> None:
-        for mat in (self.P, self._coarse):
-            if mat is not None:
-                mat.destroy()
-        self._coarse = None
