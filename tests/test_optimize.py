@@ -18,6 +18,11 @@ from conftest import BIN, CONFIGS, ROOT, read_json, run_cli, run_subprocess
 import shapegrowth as sg
 
 ARC = CONFIGS / "tiny" / "beam_arc.yaml"
+CUBE = CONFIGS / "tiny" / "cube_uniform.yaml"
+# the tiny cube as a solid body of degree 2, clamped at one face, its target bent
+SOLID_CUBE = ("model.degree=2", "mesh.size=0.25", "boundary.clamp=x1_min",
+              "target.map=[x1, x2, 'x3 + 0.1*x1**2']", "objective.hausdorff.alpha=200.0",
+              "output.checkpoint_every=1")
 
 
 def history(out: Path) -> list[dict]:
@@ -83,9 +88,11 @@ def test_an_alpha_schedule_sharpens_stage_by_stage(tmp_path):
 @pytest.mark.parametrize("rtol_far, cells, linear, extra", [
     # the checkpoint holds the design and the optimiser's state, not the linear solver's:
     # one factorisation besides auto's LU (LDL^T, on a mixed body on hexahedra), where the
-    # iterative and out-of-core presets' states are LU's (tests/test_linear.py)
+    # out-of-core presets' states are LU's (tests/test_linear.py); and the p-multigrid, on a
+    # solid cube (a thin beam's multigrid falls back to LU)
     (None, "simplex", "auto", ()), (1e-6, "simplex", "auto", ()), (None, "hex", "auto", ()),
-    (None, "hex", "mumps_ldlt", ("material.formulation=mixed",))])
+    (None, "hex", "mumps_ldlt", ("material.formulation=mixed",)),
+    (None, "simplex", "pmg", SOLID_CUBE)])
 def test_resume_after_sigkill_ends_identical(rtol_far, cells, linear, extra, tmp_path):
     """Killed after 3 checkpoints and resumed, a run ends with the uninterrupted one's
     history.  Where the state's tolerance follows the optimiser's progress (solver.rtol_far;
@@ -93,18 +100,20 @@ def test_resume_after_sigkill_ends_identical(rtol_far, cells, linear, extra, tmp
     tolerance, not to round-off: the resumed process holds no factors for the tangent
     predictor, so its first warm step reaches the same tolerance by another path (measured
     3.6e-9 apart in J at rtol_far 1e-6).  The same on hexahedra, and for a mixed body (its
-    pressure in the checkpointed state), Q2-Q1 on hexahedra by the LDL^T factorisation."""
+    pressure in the checkpointed state), Q2-Q1 on hexahedra by the LDL^T factorisation; and
+    a solid cube by the p-multigrid, whose Krylov solves follow Newton's tolerance."""
+    config = CUBE if extra == SOLID_CUBE else ARC
     sets = ["--set", "optimizer.max_iterations=8", "--set", f"mesh.cells={cells}",
             "--set", f"solver.linear={linear}", *[x for e in extra for x in ("--set", e)]]
     if rtol_far is not None:
         sets += ["--set", f"solver.rtol_far={rtol_far}"]
     ref = tmp_path / "uninterrupted"
-    assert run_cli("run", ARC, "--out", ref, "-q", *sets) == 0
+    assert run_cli("run", config, "--out", ref, "-q", *sets) == 0
 
     killed = tmp_path / "killed"
     # a killed process leaves its out-of-core factors (mumps_ooc): here, not in /tmp
     env = {**os.environ, "MUMPS_OOC_TMPDIR": str(tmp_path)}
-    proc = subprocess.Popen([str(BIN / "shapegrowth"), "run", str(ARC), "--out", str(killed),
+    proc = subprocess.Popen([str(BIN / "shapegrowth"), "run", str(config), "--out", str(killed),
                              "-q", *sets], cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     deadline = time.time() + 240
@@ -116,7 +125,7 @@ def test_resume_after_sigkill_ends_identical(rtol_far, cells, linear, extra, tmp
     assert 3 <= done_before < 8, "the run was not interrupted in the middle"
     assert not (killed / "summary.json").exists()
 
-    assert run_cli("run", ARC, "--out", killed, "-q", "--resume", *sets) == 0
+    assert run_cli("run", config, "--out", killed, "-q", "--resume", *sets) == 0
     a, b = history(ref), history(killed)
     assert [r["iteration"] for r in b] == [r["iteration"] for r in a]
     rel = 1e-10 if rtol_far is None else 1e-7
@@ -124,6 +133,9 @@ def test_resume_after_sigkill_ends_identical(rtol_far, cells, linear, extra, tmp
     sa, sb = read_json(ref / "summary.json"), read_json(killed / "summary.json")
     assert sb["objective_final"] == pytest.approx(sa["objective_final"], rel=rel)
     assert sb["resumed"] and not sa["resumed"]
+    if linear == "pmg":  # the multigrid's own states, none by the exact fallback
+        assert sa["linear_solver"]["preset"] == "pmg"
+        assert sa["linear_solver"]["fallbacks"] == sb["linear_solver"]["fallbacks"] == 0
 
 
 def _checkpointed(path: Path) -> int:

@@ -34,6 +34,15 @@ A - sigma diag(M, 0) has n_p more negative pivots than it has negative eigenvalu
 number of pressure DOFs: ``negative`` is the inertia less n_p.  The mode is the eigenvector's
 displacement.  Tested against a dense elimination of the pressure (tests/test_stability.py).
 
+With ``solver.linear: pmg`` nothing is factorised: LOBPCG finds the ``count`` smallest
+eigenvalues of the pencil, preconditioned by the state's p-multigrid on K, in a few
+vectors.  The clamped rows' zeros of M would make it singular, which LOBPCG does not take:
+they get a mass 1/(1000 b), b = max K_ii / M_ii over the free rows, so that their eigenvalue
+1000 b lies above the Rayleigh quotient of every free unit vector, hence above the lowest.
+``negative`` is then the number of negative ones among those found, a lower bound where all
+``count`` are negative (the inertia is a factorisation's).  Tested against the LDL^T's
+eigenvalues (tests/test_stability.py).
+
 Along a growth path from rest, physics/paths.py watches it and, on request, leaves it for a
 stable branch.
 """
@@ -60,6 +69,8 @@ log = logging.getLogger(__name__)
 # delayed pivots outgrow it (INFOG(1) = -9, seen on PETSc 3.22 with 2 ranks on a cube)
 WORKSPACE = (50, 200, 800)
 RETARGETS = 12  # doublings of the target below 0 that look for negative eigenvalues (4096x)
+CLAMPED_ABOVE = 1e3  # the clamped rows' eigenvalue over the free rows' largest K_ii / M_ii
+LOBPCG_TOLERANCE = 1e-8  # relative residual (the eigenvalue's error goes as its square)
 
 
 def _holds_negative(pairs: list[tuple[float, int]]) -> bool:
@@ -144,27 +155,49 @@ class StabilityProblem:
         mass = dolfinx.fem.form(ufl.inner(u, v) * state.weight * dx)
         full = compat.assemble_matrix(mass, state.bcs, diagonal=0.0)
         full.assemble()
+        # solver.linear pmg: the eigensolve preconditioned by the p-multigrid (module doc)
+        self.pmg = None if state.newton.pmg is None else (
+            state.newton.pmg if shared_tangent else state.newton.pmg.sibling())
+        if self.pmg is not None:  # the clamped rows' diagonal kept; assess() sets it
+            diagonal = full.getDiagonal()
+            self._clamped = diagonal.getArray() == 0.0
+            diagonal.getArray()[self._clamped] = 1.0
+            full.setDiagonal(diagonal)
+            full.assemble()
+            diagonal.destroy()
         self.M = without_zeros(full)  # the mass couples no two components: a third of K's
         full.destroy()
         self.K = state.A if shared_tangent else dolfinx.fem.petsc.create_matrix(
             state.jacobian_form)
         self._energy: dolfinx.fem.Form | None = None
         self._order: list[int] = []  # the last solve's eigenpairs, lowest first
-        self.options = SolverOptions(self.role, {
-            "st_ksp_type": "preonly", "st_pc_type": "cholesky",
-            "st_pc_factor_mat_solver_type": "mumps",
-            "st_mat_mumps_icntl_24": 1,  # a singular K (at a threshold): null pivots kept
-            **({"st_mat_mumps_icntl_22": 1} if out_of_core else {}),
-        })
+        if self.pmg is None:
+            self.options = SolverOptions(self.role, {
+                "st_ksp_type": "preonly", "st_pc_type": "cholesky",
+                "st_pc_factor_mat_solver_type": "mumps",
+                "st_mat_mumps_icntl_24": 1,  # a singular K (at a threshold): null pivots kept
+                **({"st_mat_mumps_icntl_22": 1} if out_of_core else {}),
+            })
+        else:
+            self.options = SolverOptions(self.role, {
+                "st_ksp_type": "preonly",
+                **{f"st_{key}": value for key, value in linear.PMG_OPTIONS.items()},
+                **{f"st_{key}": value for key, value in self.pmg.coarse_options().items()}})
         self.eps = SLEPc.EPS().create(V.mesh.comm)
         self.eps.setOptionsPrefix(self.options.prefix)
         self.eps.setOperators(self.K, self.M)
         self.eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)  # M semi-definite
         self.eps.setDimensions(count)
-        self.eps.setTarget(0.0)
-        self.eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-        self.eps.setTolerances(1e-10, 200)
-        self.eps.getST().setType(SLEPc.ST.Type.SINVERT)
+        if self.pmg is None:
+            self.eps.setTarget(0.0)
+            self.eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+            self.eps.setTolerances(1e-10, 200)
+            self.eps.getST().setType(SLEPc.ST.Type.SINVERT)
+        else:
+            self.eps.setType(SLEPc.EPS.Type.LOBPCG)
+            self.eps.setWhichEigenpairs(SLEPc.EPS.Which.SMALLEST_REAL)
+            self.eps.setTolerances(LOBPCG_TOLERANCE, 2000)
+            self.eps.getST().setType(SLEPc.ST.Type.PRECOND)
         with self.options.pushed():
             self.eps.setFromOptions()
 
@@ -183,6 +216,13 @@ class StabilityProblem:
         # 2 ranks: 796 -> 559 MB)
         heap.trim()
         self.state.tangent_into(self.K)
+        if self.pmg is not None:
+            pairs = self._solve_preconditioned()
+            negative = sum(value < 0.0 for value, _ in pairs)
+            if negative == len(pairs) == self.count:
+                log.debug("  stability: the %d eigenvalues found are negative: %d or more "
+                          "negative", self.count, self.count)
+            return self._keep(pairs, negative)
         factor = self._solve(0.0)
         negative = int(factor.getMumpsInfog(12)) - self.constraints
         pairs = self._pairs()
@@ -202,6 +242,10 @@ class StabilityProblem:
                       negative, self.count, target, [round(v, 6) for v, _ in pairs])
             if below == 0 and not _holds_negative(pairs):
                 break  # none below the target, and none found above it
+        return self._keep(pairs, negative)
+
+    def _keep(self, pairs: list[tuple[float, int]], negative: int) -> Stability:
+        """The stability of the eigenpairs ``pairs`` (lowest first); the mode the lowest's."""
         self._order = [i for _, i in pairs]
         lowest = tuple(float(value) for value, _ in pairs)
         if pairs:
@@ -240,6 +284,40 @@ class StabilityProblem:
         else:
             raise StabilityError(f"the tangent's eigenproblem failed ({failure})")
         return self.eps.getST().getKSP().getPC().getFactorMatrix()
+
+    def _solve_preconditioned(self) -> list[tuple[float, int]]:
+        """LOBPCG on (K, M) with the p-multigrid of K, the clamped rows' mass set above the
+        lowest (module doc): the lowest ``count`` eigenpairs (collective)."""
+        assert self.pmg is not None
+        stiffness, mass = self.K.getDiagonal(), self.M.getDiagonal()
+        k, m = stiffness.getArray(), mass.getArray()
+        free = ~self._clamped
+        local = float(np.max(k[free] / m[free], initial=0.0))
+        bound = self.K.getComm().tompi4py().allreduce(local, MPI.MAX)
+        m[self._clamped] = 1.0 / (CLAMPED_ABOVE * bound)
+        self.M.setDiagonal(mass)
+        self.M.assemble()
+        stiffness.destroy()
+        mass.destroy()
+        self.eps.setOperators(self.K, self.M)
+        ksp = self.eps.getST().getKSP()
+        ksp.setOperators(self.K)
+        with self.options.pushed():
+            self.eps.setFromOptions()
+            ksp.setFromOptions()
+        self.pmg.prepare(ksp, self.K)
+        try:
+            self.eps.solve()
+        except PETSc.Error as err:
+            ksp.reset()
+            raise StabilityError(f"the tangent's eigenproblem failed (LOBPCG: PETSc error "
+                                 f"{linear.error_code(err)})") from err
+        if self.eps.getConverged() < self.count:
+            raise StabilityError(f"LOBPCG found {self.eps.getConverged()} of {self.count} "
+                                 f"eigenpairs in {self.eps.getIterationNumber()} iterations")
+        log.debug("  stability: LOBPCG with the p-multigrid, %d iterations",
+                  self.eps.getIterationNumber())
+        return self._pairs()
 
     def _pairs(self) -> list[tuple[float, int]]:
         """The lowest ``count`` of the last solve's converged eigenpairs (those nearest its
