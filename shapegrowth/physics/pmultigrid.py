@@ -87,8 +87,11 @@ class PMultigrid:
         self._coarse: PETSc.Mat | None = None
 
     @classmethod
-    def of(cls, V, direct_coarse_dofs: int = DIRECT_COARSE_DOFS) -> PMultigrid:
-        """The p-multigrid of the displacement space ``V`` (degree 2)."""
+    def of(cls, V, direct_coarse_dofs: int | None = None) -> PMultigrid:
+        """The p-multigrid of the displacement space ``V`` (degree 2), its coarse level
+        factorised up to ``direct_coarse_dofs`` (default :data:`DIRECT_COARSE_DOFS`)."""
+        if direct_coarse_dofs is None:
+            direct_coarse_dofs = DIRECT_COARSE_DOFS
         if compat.space_degree(V) != 2:
             raise ValueError("the p-multigrid coarsens P2 (Q2) displacements to P1 (Q1)")
         coarse_space = compat.vector_space(V.mesh, 1)
