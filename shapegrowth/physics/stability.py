@@ -160,6 +160,7 @@ class StabilityProblem:
         # solver.linear pmg: the eigensolve preconditioned by the p-multigrid (module doc)
         self.pmg = None if state.newton.pmg is None else (
             state.newton.pmg if shared_tangent else state.newton.pmg.sibling())
+        self._previous: list[PETSc.Vec] = []  # the modes last found by the p-multigrid's
         if self.pmg is not None:  # the clamped rows' diagonal kept; assess() sets it
             diagonal = full.getDiagonal()
             self._clamped = diagonal.getArray() == 0.0
@@ -308,6 +309,8 @@ class StabilityProblem:
             self.eps.setFromOptions()
             ksp.setFromOptions()
         self.pmg.prepare(ksp, self.K)
+        if self._previous:  # the last assessment's modes: a path's next step starts near them
+            self.eps.setInitialSpace(self._previous)
         try:
             self.eps.solve()
         except PETSc.Error as err:
@@ -320,7 +323,15 @@ class StabilityProblem:
                                  "iterations")
         log.debug("  stability: generalised Davidson with the p-multigrid, %d iterations",
                   self.eps.getIterationNumber())
-        return self._pairs()
+        pairs = self._pairs()
+        for vec in self._previous:
+            vec.destroy()
+        self._previous = []
+        for _, i in pairs:
+            vec = self.K.createVecRight()
+            self.eps.getEigenpair(i, vec)
+            self._previous.append(vec)
+        return pairs
 
     def _pairs(self) -> list[tuple[float, int]]:
         """The lowest ``count`` of the last solve's converged eigenpairs (those nearest its
