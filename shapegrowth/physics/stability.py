@@ -73,6 +73,7 @@ WORKSPACE = (50, 200, 800)
 RETARGETS = 12  # doublings of the target below 0 that look for negative eigenvalues (4096x)
 CLAMPED_ABOVE = 1e3  # the clamped rows' eigenvalue over the free rows' largest K_ii / M_ii
 DAVIDSON_TOLERANCE = 1e-8  # relative residual (measured: eigenvalues to 1e-8 of the LDL^T's)
+SPARE_PAIRS = 2  # the Davidson method's eigenpairs beyond the ``count`` kept
 
 
 def _holds_negative(pairs: list[tuple[float, int]]) -> bool:
@@ -160,7 +161,7 @@ class StabilityProblem:
         # solver.linear pmg: the eigensolve preconditioned by the p-multigrid (module doc)
         self.pmg = None if state.newton.pmg is None else (
             state.newton.pmg if shared_tangent else state.newton.pmg.sibling())
-        self._previous: list[PETSc.Vec] = []  # the modes last found by the p-multigrid's
+        self._previous: list[PETSc.Vec] = []  # the Davidson method's last modes
         if self.pmg is not None:  # the clamped rows' diagonal kept; assess() sets it
             diagonal = full.getDiagonal()
             self._clamped = diagonal.getArray() == 0.0
@@ -198,6 +199,9 @@ class StabilityProblem:
             self.eps.getST().setType(SLEPc.ST.Type.SINVERT)
         else:
             self.eps.setType(SLEPc.EPS.Type.GD)
+            # two pairs beyond those kept: asked for 3 alone, started from the last step's
+            # modes, it missed the bar's third eigenvalue (0.981) for the fourth (1.007)
+            self.eps.setDimensions(count + SPARE_PAIRS)
             self.eps.setWhichEigenpairs(SLEPc.EPS.Which.SMALLEST_REAL)
             self.eps.setTolerances(DAVIDSON_TOLERANCE, 2000)
             self.eps.getST().setType(SLEPc.ST.Type.PRECOND)
@@ -317,7 +321,7 @@ class StabilityProblem:
             ksp.reset()
             raise StabilityError(f"the tangent's eigenproblem failed (GD: PETSc error "
                                  f"{linear.error_code(err)})") from err
-        if self.eps.getConverged() < self.count:
+        if self.eps.getConverged() < self.count:  # the spare pairs are not asked for
             raise StabilityError(f"generalised Davidson found {self.eps.getConverged()} of "
                                  f"{self.count} eigenpairs in {self.eps.getIterationNumber()} "
                                  "iterations")
