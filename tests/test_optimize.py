@@ -101,7 +101,7 @@ def test_resume_after_sigkill_ends_identical(rtol_far, cells, linear, extra, tmp
     predictor, so its first warm step reaches the same tolerance by another path (measured
     3.6e-9 apart in J at rtol_far 1e-6).  The same on hexahedra, and for a mixed body (its
     pressure in the checkpointed state), Q2-Q1 on hexahedra by the LDL^T factorisation; and
-    a solid cube by the p-multigrid, whose Krylov solves follow Newton's tolerance."""
+    a solid cube by the p-multigrid, its MINRES solves to 1e-10."""
     config = CUBE if extra == SOLID_CUBE else ARC
     sets = ["--set", "optimizer.max_iterations=8", "--set", f"mesh.cells={cells}",
             "--set", f"solver.linear={linear}", *[x for e in extra for x in ("--set", e)]]
