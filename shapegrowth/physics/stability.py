@@ -191,8 +191,8 @@ class StabilityProblem:
         self.eps.setOptionsPrefix(self.options.prefix)
         self.eps.setOperators(self.K, self.M)
         self.eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)  # M semi-definite
-        self.eps.setDimensions(count)
         if self.pmg is None:
+            self.eps.setDimensions(count)
             self.eps.setTarget(0.0)
             self.eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
             self.eps.setTolerances(1e-10, 200)
