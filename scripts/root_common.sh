@@ -27,6 +27,11 @@ root_copy_checkout() {
   find "$dest" -mindepth 1 -maxdepth 1 ! -name .venv ! -name .cache -exec rm -rf {} +
   git ls-files -co --exclude-standard -z | tar --null -cf - -T - | tar -xf - -C "$dest"
   find meshes -maxdepth 1 \( -name '*.msh' -o -name '*.json' \) -exec cp {} "$dest/meshes/" \;
+  # Two pytest workers that meet one form: the second waits for the first's compile, by
+  # default 10 s, which a loaded root once exceeded (a TimeoutError on a fresh JIT cache).
+  # The root's own home gets a longer wait; dolfinx 0.9 and 0.11 read this file.
+  mkdir -p "$ROOT/root/.config/dolfinx"
+  echo '{"timeout": 300}' > "$ROOT/root/.config/dolfinx/dolfinx_jit_options.json"
 }
 
 # proc and sys for MPI (hwloc reads the CPU topology; the wheel's MPICH fails in
