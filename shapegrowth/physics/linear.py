@@ -91,11 +91,12 @@ AUTO_LDLT_DOFS = 20_000
 # "Out of core").
 AUTO_OOC_DOFS = 500_000
 # ... and from this many on, a solid 3D body of degree 2 (at least AUTO_PMG_ACROSS cells
-# across: physics/pmultigrid.py, elements_across) goes to the p-multigrid: on a clamped P2
-# cube of 206 763 DOFs it took 0.32x the LDL^T's time and 0.59x its peak memory, with 26
-# MINRES iterations per Newton step; on the bent beam, 0.87 and (refined once) 1.74 cells
-# across, solves ran into 1000 iterations and fell back to LU, at 3.3x the LDL^T's time
-# (docs/PERFORMANCE.md, "A p-multigrid for solid bodies").
+# across: physics/pmultigrid.py, elements_across) goes to the p-multigrid: a clamped P2
+# cube of 206 763 DOFs from rest took 217 s and 1.4 GB against the LDL^T's 1 344 s and
+# 7.0 GB (its tolerance following Newton's, 8 MINRES iterations a Newton step); on the bent
+# beam, 0.87 and (refined once) 1.74 cells across, solves ran into 1000 iterations and fell
+# back to LU, at 3.3x the LDL^T's time (docs/PERFORMANCE.md, "A p-multigrid for solid
+# bodies").
 AUTO_PMG_DOFS = 100_000
 AUTO_PMG_ACROSS = 4.0
 
