@@ -100,6 +100,26 @@ def test_a_mixed_body_has_its_gradient(sets, shared_tmp):
     assert min(check["rates"]) > 1.9, check
 
 
+@pytest.mark.mpi
+@pytest.mark.parametrize("sets", [["material.formulation=mixed"],
+                                  ["material.incompressible=true"]],
+                         ids=["mixed", "incompressible"])
+def test_a_mixed_body_s_stability_penalty_has_its_gradient(sets, shared_tmp):
+    """The stability penalty (optimizer.stability) of a mixed body dominating J, the beam held
+    at both ends: its eigenvalues' sensitivity is the whole eigenvector's (u, p) quadratic
+    form of the tangent's derivative, and their u- and p-derivatives join dJ/dw before the
+    adjoint solve.  Taylor rate > 1.9 (measured 1.998-2.000 mixed, J 82.7 of which rho_H
+    ~1e-2); with the pressure's part of dP/dw dropped the rate falls to 0.99."""
+    assert run_cli("gradcheck", CONFIGS / "tiny" / "beam_wave.yaml", "--out", shared_tmp,
+                   "-q", *_sets(*sets, "boundary.clamp=[x1_min, x1_max]",
+                                "optimizer.stability.min_eigenvalue=0.5",
+                                "optimizer.stability.modes=3",
+                                "optimizer.stability.weight=100")) == 0
+    check = read_json(shared_tmp / "gradcheck.json")
+    assert check["objective"] > 10.0, check  # the penalty, not rho_H, is J
+    assert min(check["rates"]) > 1.9, check
+
+
 def test_an_incompressible_section_in_plane_stress_holds_j_at_one():
     """The third stretch of an incompressible plane-stress section makes J of the elastic
     part 1 at any F and C_g, and at F = G (the grown shape) it is sqrt(lambda_3)."""
@@ -223,10 +243,6 @@ def test_the_mixed_element_does_not_lock_where_the_displacement_element_does(sha
      "model.degree: the mixed formulation is Taylor-Hood"),
     (["material.formulation=mixed", "solver.linear=gamg"],
      "solver.linear: gamg is for a positive definite tangent"),
-    (["material.formulation=mixed", "solver.branch=switch"],
-     "solver.branch: a switch moves the displacement alone"),
-    (["material.formulation=mixed", "optimizer.stability.min_eigenvalue=0.01"],
-     "optimizer.stability.min_eigenvalue: a mixed body's stability is assessed"),
     (["material.incompressible=true", *NH, "material.kappa=5"],
      "material.kappa: not used by kind 'neo_hookean'"),
     (["material.incompressible=true", "material.formulation=mixed", "model.dim=2",

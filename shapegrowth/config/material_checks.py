@@ -126,14 +126,6 @@ def _check_formulation(cfg: Config, m: MaterialConfig, volumetric: str | None,
         errors.append(f"solver.linear: {cfg.solver.linear} is for a positive definite "
                       "tangent; a mixed body's is a saddle point: use mumps, mumps_ldlt, "
                       "mumps_ooc or auto")
-    if cfg.optimizer.stability.min_eigenvalue is not None:
-        errors.append("optimizer.stability.min_eigenvalue: a mixed body's stability is "
-                      "assessed, but the gradient of its lowest eigenvalue is not written; "
-                      "remove the key or use material.formulation: displacement")
-    if cfg.solver.branch == "switch":
-        errors.append("solver.branch: a switch moves the displacement alone along its mode, "
-                      "not a mixed body's pressure with it; use follow (the stability is "
-                      "assessed and the loss reported)")
     return formulation
 
 

@@ -79,11 +79,14 @@ class AdjointProblem:
         self.design_forms = [dolfinx.fem.form(ufl.derivative(coupled, f, mu))
                              for f in state.applied.fields]
 
-    def solve(self, dJdu: PETSc.Vec) -> int:
+    def solve(self, dJdu: PETSc.Vec, dJdw: PETSc.Vec | None = None) -> int:
         """p for the current state; returns the linear iterations (of a fresh solve) or the
-        refinements (with the state's factors)."""
+        refinements (with the state's factors).  ``dJdw``: a part of dJ in the unknown's
+        DOFs (a mixed body's pressure too: the stability penalty's), added."""
         st = self.state
         st.to_unknown(dJdu, self.rhs)  # zero in a mixed body's pressure: J sees u alone
+        if dJdw is not None:
+            self.rhs.axpy(1.0, dJdw)
         self.rhs.scale(-1.0)
         compat.set_bc(self.rhs, st.bcs, alpha=0.0)  # p = 0 where u is prescribed
         if self.reuse and self.state.jacobian_assemblies > 0:

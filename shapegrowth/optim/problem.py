@@ -323,11 +323,12 @@ class ReducedFunctional:
     def _gradient(self, dJdu) -> np.ndarray:
         penalty = self.stability if self.stability is not None and \
             self.stability.active() else None
+        dJdw = None
         if penalty is not None:
             with self.timer("adjoint", "stability"):
-                dJdu.axpy(1.0, penalty.derivative_u())
+                dJdw = penalty.derivative_u()
         with self.timer("adjoint", "adjoint_solve"):
-            self.adjoint.solve(dJdu)
+            self.adjoint.solve(dJdu, dJdw)
         with self.timer("adjoint", "sensitivities"):
             sens = self.adjoint.sensitivities()
             explicit = self.objective.explicit_growth_derivatives()

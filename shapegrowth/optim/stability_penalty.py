@@ -44,7 +44,7 @@ class StabilityPenalty:
         assert settings.min_eigenvalue is not None
         self.eps, self.weight = settings.min_eigenvalue, settings.weight
         self.problem = StabilityProblem(state, settings.modes)
-        self.modes = [dolfinx.fem.Function(state.V, name=f"mode_{i}")
+        self.modes = [dolfinx.fem.Function(state.W, name=f"mode_{i}")
                       for i in range(settings.modes)]
         mesh = state.domain.mesh
         self.coefficients = [compat.constant(mesh, 0.0)
@@ -53,7 +53,7 @@ class StabilityPenalty:
         quadratic = sum(c * ufl.replace(state.jacobian_ufl, {test: phi, trial: phi})
                         for c, phi in zip(self.coefficients, self.modes))
         mu = ufl.TestFunction(state.applied.space)
-        self._du = dolfinx.fem.form(ufl.derivative(quadratic, state.u, state.v))
+        self._du = dolfinx.fem.form(ufl.derivative(quadratic, state.w, state.v))
         self._dgrowth = [dolfinx.fem.form(ufl.derivative(quadratic, f, mu))
                          for f in state.applied.fields]
         self.lowest: tuple[float, ...] = ()
@@ -74,7 +74,8 @@ class StabilityPenalty:
         return any(float(c.value) != 0.0 for c in self.coefficients)
 
     def derivative_u(self) -> PETSc.Vec:
-        """dP/du at fixed C_g (of the last :meth:`value`)."""
+        """dP/dw at fixed C_g (of the last :meth:`value`): w the state's unknown, a mixed
+        body's (u, p)."""
         return assemble(self._du)
 
     def derivatives_growth(self) -> list[PETSc.Vec]:

@@ -19,7 +19,9 @@ signs tried), shifted Newton steps (K + shift M) du = R carry it away from the u
 equilibrium towards a stable one (:func:`descend`), Newton's method
 converges there, and the equilibrium found is kept where it has fewer negative eigenvalues
 than the one left (else the path is followed, and tried again at the next step,
-``MAX_SWITCHES`` tries in all).  ``branch`` says where the solve ended: ``followed``
+``MAX_SWITCHES`` tries in all).  A mixed body's unknown (u, p) moves along the whole
+eigenvector, and its shifted steps count the inertia less its pressure DOFs, as
+StabilityProblem does.  ``branch`` says where the solve ended: ``followed``
 (the path from rest) or ``switched`` (at ``switched_at``).
 
 A state carried from a coarser mesh (a check continued onto a finer one) is solved by
@@ -38,6 +40,7 @@ from dataclasses import dataclass
 
 import dolfinx.fem
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import compat, heap
@@ -144,8 +147,11 @@ def switch_branch(problem: StabilityProblem, before: Stability) -> Stability | N
     # assess() looks below 0 for the unstable modes; none found there: no mode to follow
     if not before.lowest or before.lowest[0] >= 0.0:
         return None
-    start = state.u.x.array.copy()
-    mode = problem.mode.x.array.copy()
+    # the unknown moves along the whole eigenvector: a mixed body's pressure with its
+    # displacement (the mode's pressure is the linearised response to its displacement, so
+    # the Lagrangian along it is the energy with the pressure eliminated, to second order)
+    start = state.w.x.array.copy()
+    mode = problem.unknown_mode.x.array.copy()
     e0 = problem.energy()
     size = _body_size(state)
     best = (e0, 0.0)
@@ -153,7 +159,7 @@ def switch_branch(problem: StabilityProblem, before: Stability) -> Stability | N
         amplitude = FIRST_AMPLITUDE * size
         previous = np.inf
         while amplitude <= LARGEST_AMPLITUDE * size:
-            state.u.x.array[:] = start + sign * amplitude * mode
+            state.w.x.array[:] = start + sign * amplitude * mode
             e = problem.energy()
             if not np.isfinite(e) or e >= previous:
                 break
@@ -163,7 +169,8 @@ def switch_branch(problem: StabilityProblem, before: Stability) -> Stability | N
             amplitude *= 2.0
     if best[1] == 0.0:  # the energy does not fall along the mode (to round-off)
         best = (e0, FIRST_AMPLITUDE * size)
-    state.u.x.array[:] = start + best[1] * mode
+    state.w.x.array[:] = start + best[1] * mode
+    state.sync()
     # Newton's method from there can return to the unstable equilibrium (measured: the
     # hexahedral disk, its pair of modes): shifted steps first, which leave it
     if descend(problem, 2.0 * -min(before.lowest), STEP_CAP * size)[0]:
@@ -180,8 +187,9 @@ def switch_branch(problem: StabilityProblem, before: Stability) -> Stability | N
             log.warning("stability after a branch switch not assessed: %s", err)
     if after is not None and after.negative < before.negative:
         return after
-    state.u.x.array[:] = start
-    state.u.x.scatter_forward()
+    state.w.x.array[:] = start
+    state.w.x.scatter_forward()
+    state.sync()
     if after is not None:  # the problem's mode back to the state kept
         problem.assess()
     return None
@@ -196,9 +204,7 @@ def solve_watched(state: StateProblem, branch: str = "follow"
     shifted Newton steps (:func:`settle_carried`)."""
     problem = StabilityProblem(state, shared_tangent=True)  # a solve from rest
     watch = PathWatch(problem, switch=branch == "switch")
-    # the shifted steps move the displacement alone: a mixed body's carried start is not
-    # settled by them (its Newton's report stands)
-    start = state.snapshot() if state.carried and not state.mixed else None
+    start = state.snapshot() if state.carried else None
     report = state.solve(watch=watch)
     if start is not None and not report.converged:
         report = settle_carried(problem, start, report)
@@ -239,6 +245,18 @@ def settle_carried(problem: StabilityProblem, start: np.ndarray, failed: SolveRe
     why = f"det F <= 0 at {inverted} sample points" if inverted else \
         f"no equilibrium in {steps} shifted Newton steps"
     return dataclasses.replace(report, reason=f"{failed.reason}; {why}")
+
+
+def _largest_displacement(state: StateProblem, du: PETSc.Vec,
+                          scratch: dolfinx.fem.Function | None) -> float:
+    """The largest |component| of the displacement's part of ``du`` (a vector of the
+    unknown's DOFs; ``scratch`` a function on the displacement's space, for a mixed body)
+    over all ranks."""
+    if scratch is None:
+        return float(du.norm(PETSc.NormType.INFINITY))
+    state.displacement_of(du, scratch)
+    local = float(np.abs(scratch.x.array).max(initial=0.0))
+    return float(state.domain.mesh.comm.allreduce(local, MPI.MAX))
 
 
 def _body_size(state: StateProblem) -> float:
@@ -332,7 +350,8 @@ def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int
     pc = ksp.getPC()
     r = compat.create_vector(state.residual_form)
     du = problem.K.createVecRight()
-    x = compat.petsc_vec(state.u)
+    x = compat.petsc_vec(state.w)
+    moved_by = dolfinx.fem.Function(state.V) if state.mixed else None  # du's displacement
     atol = state.newton.snes.getTolerances()[1]
     largest_residual = 0.0
     moved = True  # the residual (and the tangent) are those of the current state otherwise
@@ -356,12 +375,14 @@ def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int
             ksp.setOperators(A)
             with options.pushed():  # MUMPS reads its options at the factorisation
                 ksp.solve(r, du)
-            negative = int(pc.getFactorMatrix().getMumpsInfog(12))
+            # a mixed body's pressure DOFs are as many negative pivots (StabilityProblem)
+            negative = int(pc.getFactorMatrix().getMumpsInfog(12)) - problem.constraints
             moved = negative == 0
             if moved:
-                largest = du.norm(PETSc.NormType.INFINITY)
+                largest = _largest_displacement(state, du, moved_by)  # the cap is of u
                 x.axpy(-min(1.0, cap / largest) if largest > 0 else 0.0, du)
-                state.u.x.scatter_forward()
+                state.w.x.scatter_forward()
+                state.sync()
                 shift /= 2.0
             else:
                 log.info("    shifted step %d: K + %.3g M has %d negative eigenvalues: no "

@@ -139,6 +139,10 @@ class StabilityProblem:
 
         self.state, self.count = state, count
         self.mode = dolfinx.fem.Function(state.V, name="stability_mode")
+        # the lowest eigenvector whole, as the mode: a mixed body's with its pressure (a
+        # branch switch moves the unknown along it); the displacement's mode itself otherwise
+        self.unknown_mode = (dolfinx.fem.Function(state.W, name="stability_mode_unknown")
+                             if state.mixed else self.mode)
         # Where the state's factor is out of core (mumps_ooc: memory before time), so is this
         # one: in core it would set the solve's peak (scene 1's 149k DOFs on 2 ranks, from
         # rest: 3.93 GB with both in core, mumps_ldlt; 2.74 GB with the state's alone out of
@@ -209,10 +213,11 @@ class StabilityProblem:
             self.eps.setFromOptions()
 
     def energy(self) -> float:
-        """The state's total energy Pi(u) at its current displacement (collective)."""
+        """The state's total energy Pi at its current unknown (collective): a mixed body's
+        Lagrangian in (u, p)."""
         if self._energy is None:
             self._energy = dolfinx.fem.form(self.state.energy)
-        self.state.u.x.scatter_forward()
+        self.state.w.x.scatter_forward()
         local = dolfinx.fem.assemble_scalar(self._energy)
         return float(self.state.domain.mesh.comm.allreduce(local, MPI.SUM))
 
@@ -259,10 +264,15 @@ class StabilityProblem:
             vr = self.K.createVecRight()
             self.eps.getEigenpair(pairs[0][1], vr)
             self.state.displacement_of(vr, self.mode)
+            if self.state.mixed:
+                vr.copy(compat.petsc_vec(self.unknown_mode))
+                self.unknown_mode.x.scatter_forward()
             vr.destroy()
             scale = _global_max(self.mode, np.abs(self.mode.x.array).max(initial=0.0))
             if scale > 0:
                 self.mode.x.array[:] /= scale
+                if self.state.mixed:
+                    self.unknown_mode.x.array[:] /= scale
         heap.trim()
         return Stability(lowest, negative)
 
@@ -350,10 +360,12 @@ class StabilityProblem:
 
     def modes_into(self, modes: list[dolfinx.fem.Function]) -> list[float]:
         """The last :meth:`assess`'s lowest eigenpairs: their eigenvalues, and their modes
-        into ``modes`` (as many as both have), normalised in the mass (phi^T M phi = 1), the
-        normalisation under which d(omega^2) = phi^T dK phi (collective)."""
-        if self.state.mixed:  # config.material_checks refuses what would ask
-            raise StabilityError("the modes' normalisation of a mixed body is not written")
+        into ``modes`` (as many as both have, functions of the unknown's space),
+        normalised in the mass (phi^T M phi = 1), the normalisation under which
+        d(omega^2) = phi^T dK phi (collective).  A mixed body's mode is the whole eigenvector
+        (u, p) of the pencil (K, diag(M, 0)), normalised by its displacement's mass: for a
+        finite eigenvalue of a symmetric pencil the same sensitivity holds, the derivative
+        of (K - omega^2 M) psi = 0 taken against psi."""
         values = []
         vr, mv = self.K.createVecRight(), self.K.createVecRight()
         for i, f in zip(self._order, modes):
