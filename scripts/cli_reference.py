@@ -61,7 +61,8 @@ def _usage(name: str, sub: argparse.ArgumentParser) -> str:
         if isinstance(action, argparse._HelpAction):
             continue
         if not action.option_strings:
-            word = action.metavar or action.dest.upper()
+            metavar = action.metavar if isinstance(action.metavar, str) else None
+            word = metavar or action.dest.upper()
             words.append(f"[{word}]" if action.nargs == "?" else word)
         elif action.required:
             words.append(f"{action.option_strings[0]} {action.metavar or action.dest.upper()}")

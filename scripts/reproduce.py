@@ -611,7 +611,7 @@ def _agreement(s: RunSummary) -> str:
     text = (f"Self-reported {_pc(s.relative_error)}, on its mesh refined once "
             f"{_pc(s.verified.relative)}{boundary}: {ratio:.2f}x, {verdict} {AGREE:g}x")
     headline = verified_error(s)
-    if s.verified.lifted is not None and headline is not None:
+    if s.verified.lifted is not None and headline is not None and s.relative_error:
         text += f"; lifted to 3D {_pc(headline)} ({headline / s.relative_error:.2f}x)"
     return text + "."
 

@@ -140,7 +140,7 @@ def _record(hint: object) -> type | None:
 
 
 # keys a record's to_json adds beside its fields (a property written out)
-_COMPUTED = {Stability: {"lowest": ["stable"]}}
+_COMPUTED: dict[type, dict[str, list[str]]] = {Stability: {"lowest": ["stable"]}}
 # who writes a key and the keys of its record, where not every command does
 _WRITER = {"verified": "run", "lifted": "run, lift", "fabrication": "run"}
 
@@ -155,7 +155,7 @@ def keys() -> list[tuple[str, str]]:
     while pending:
         cls, prefix, writer = pending.pop(0)
         hints = typing.get_type_hints(cls)
-        for f in dataclasses.fields(cls):  # type: ignore[arg-type]
+        for f in dataclasses.fields(cls):
             record = _record(hints[f.name])
             if record in _FLAT:
                 pending.insert(0, (record, "", _FLAT[record]))
