@@ -87,11 +87,12 @@ test-dolfinx011:
 	@scripts/dolfinx011.sh
 
 # ruff on the package, its tests, scripts, benchmarks and notebook sources, and mypy on the
-# package (both configured in pyproject.toml; the scripts and benchmarks call petsc4py, whose
-# type stubs on dolfinx 0.11 differ from Debian's: checked by hand, `mypy scripts benchmarks`)
+# package, its scripts and benchmarks (configured in pyproject.toml; the dolfinx 0.11 leg
+# checks the package alone: the scripts call petsc4py, whose stubs there differ from Debian's)
 lint:
 	$(BIN)/ruff check shapegrowth tests scripts benchmarks notebooks
 	$(BIN)/mypy
+	$(BIN)/mypy scripts benchmarks
 
 PYTEST := $(BIN)/python -m pytest -q --durations=15
 # The serial tiers on $(NP) pytest-xdist workers, one BLAS thread each, a test file's tests on
