@@ -410,3 +410,40 @@ def test_the_analysis_alone_estimates_what_the_factorisation_takes(preset, share
     assert estimate.flops > 0 and estimate.mb_out_of_core[1] <= estimate.mb_in_core[1]
     with pytest.raises(ValueError, match="direct MUMPS preset"):
         linear.analyse(A, "gamg")
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("failures, cuts, fallbacks", [(1, 1, 0), (3, 2, 1)])
+def test_an_iterative_preset_s_failure_cuts_the_load_step_before_it_falls_back(
+        failures, cuts, fallbacks, shared_tmp, monkeypatch):
+    """The p-multigrid's linear solve failing at a Newton iterate (here: its first solves
+    made to fail) cuts the load step, as a failed Newton step does, LINEAR_CUTS times in a
+    solve; only the failure after those falls back to the exact factorisation, which at 10^6
+    DOFs may not fit (the 1.12M-DOF beam's LU was killed for memory).  The equilibrium is
+    the one found without the failures, to 1e-9."""
+    from shapegrowth.physics import newton, state
+    from shapegrowth.physics.model import ForwardModel
+
+    cfg = load(CUBE, [f"mesh.cache_dir={shared_tmp}", "model.degree=2", "mesh.size=0.25",
+                      "boundary.clamp=x1_min", "solver.linear=pmg",
+                      "growth.eigenvalues.initial=['1.2 + 0.3*x2', 0.9, 1.0]"])
+    reference = ForwardModel.build(cfg)
+    assert reference.state.solve().converged
+    plain = newton.NewtonSolver._snes_solve
+    left = [failures]
+
+    def failing(self, reference, rtol):
+        if left[0] > 0 and self.snes.getKSP() is not (self._exact or (None,))[0]:
+            left[0] -= 1
+            return False, 1, "KSP indefinite matrix after 0 iterations", True
+        return plain(self, reference, rtol)
+
+    monkeypatch.setattr(newton.NewtonSolver, "_snes_solve", failing)
+    model = ForwardModel.build(cfg)
+    with linear.counting() as tally:
+        report = model.state.solve()
+    assert report.converged and report.failed_steps == cuts == min(failures, state.LINEAR_CUTS)
+    assert report.history[0][0] == pytest.approx(0.1 / 2**cuts)
+    assert tally.state == fallbacks
+    owned = model.state.snapshot()
+    assert np.abs(owned - reference.state.snapshot()).max() <= 1e-9 * np.abs(owned).max()
