@@ -167,7 +167,7 @@ class NewtonSolver:
         if not fallback and self.linear in linear.ITERATIVE:
             linear.reset_after_failure(self.snes.getKSP())
             self.linear_failed = True
-            return False, its, f"{self.linear}'s linear solve failed: {reason}"
+            return False, its, f"{self.linear}'s linear solve: {reason}"
         linear.record_fallback(self.role, self.linear, reason)
         linear.reset_after_failure(self.snes.getKSP())
         self._preset_failures += 1

@@ -462,7 +462,7 @@ class StateProblem:
                 break
             dt /= 2.0
             hold = HOLD_AFTER_CUT if cont.step_rtol is not None else 0
-            log.log(level, "  load step at t = %.4f failed (%s; %d Newton iterations): "
+            log.log(level, "  load step at t = %.4f failed (%s after %d iterations): "
                     "step cut to %.3g", trial, reason, its, dt)
             if dt < cont.min_step or report.steps + report.failed_steps >= cont.max_steps:
                 report.converged = False
