@@ -130,7 +130,6 @@ class NewtonSolver:
             A.setNearNullSpace(rigid_body_modes(V))
         self._exact: tuple[PETSc.KSP, SolverOptions] | None = None  # made at a fallback
         self._preset_failures = 0  # the preset's failed solves in a row
-        self.linear_failed = False  # the last solve stopped at its preset's linear failure
         self.factored_by_preset = False  # the last solve's factors are the preset's
 
     def exact_ksp(self) -> tuple[PETSc.KSP, SolverOptions]:
@@ -146,15 +145,12 @@ class NewtonSolver:
             self._exact = (ksp, options)
         return self._exact
 
-    def solve(self, reference: float | None = None, rtol: float | None = None,
-              fallback: bool = True) -> tuple[bool, int, str]:
+    def solve(self, reference: float | None = None,
+              rtol: float | None = None) -> tuple[bool, int, str]:
         """Newton's method from the problem's unknown ``w``; ``reference``: the residual norm its
         relative tolerance is taken of (default: the residual at the start); ``rtol``: that
-        tolerance (default solver.rtol).  Converged, iterations, reason.  ``fallback``
-        False: where an iterative preset's linear solve fails, no exact solve follows; the
-        failure is returned (``linear_failed`` True), for the caller to cut its load step."""
+        tolerance (default solver.rtol).  Converged, iterations, reason."""
         self.factored_by_preset = False
-        self.linear_failed = False
         if self._preset_failures >= linear.GIVE_UP_AFTER:  # the preset does not hold here
             return self._exact_solve(reference, rtol)
         w = _alive(self._problem).w
@@ -164,10 +160,6 @@ class NewtonSolver:
             self._preset_failures = 0
             self.factored_by_preset = its > 0
             return ok, its, reason
-        if not fallback and self.linear in linear.ITERATIVE:
-            linear.reset_after_failure(self.snes.getKSP())
-            self.linear_failed = True
-            return False, its, f"{self.linear}'s linear solve: {reason}"
         linear.record_fallback(self.role, self.linear, reason)
         linear.reset_after_failure(self.snes.getKSP())
         self._preset_failures += 1

@@ -9,9 +9,7 @@ its first variation is the residual (5.10)-(5.11) and its second the tangent
 Growth is reached by continuation: the growth applied to the body moves from
 the last equilibrium (or from C_g = I at rest) to the requested one in steps
 that double after easy Newton solves and halve after a failed one, until the
-step falls below ``solver.continuation.min_step`` (an iterative linear solver's
-breakdown cuts the step too, ``LINEAR_CUTS`` times, before the exact factorisation is
-taken).  Each step starts from the
+step falls below ``solver.continuation.min_step``.  Each step starts from the
 secant extrapolation of the last two equilibria (on the half-circle bend of
 the scene-1 beam this halves the Newton iterations: 69 instead of 130).  The
 last converged state is always kept.  The steps before the full growth only
@@ -67,9 +65,6 @@ log = logging.getLogger(__name__)
 # double again (without it a step that converges easily at s and fails at 2 s is tried at
 # 2 s after every success)
 HOLD_AFTER_CUT = 2
-# A solve's load steps cut for an iterative preset's failed linear solve before such a
-# failure falls back to the exact factorisation (NewtonSolver.solve)
-LINEAR_CUTS = 2
 
 _INSERT, _ADD = PETSc.InsertMode.INSERT, PETSc.InsertMode.ADD
 _FORWARD, _REVERSE = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
@@ -408,7 +403,6 @@ class StateProblem:
         saved = self.w.x.array.copy()
         previous: tuple[float, np.ndarray] | None = None  # the equilibrium before `saved`
         hold = 0  # converged steps still to make at the size a failure cut to
-        linear_cuts = 0  # steps cut for the preset's linear failures
         while t < 1.0 - 1e-14:
             dt = min(dt, 1.0 - t)
             trial = t + dt
@@ -426,13 +420,7 @@ class StateProblem:
                     self.jacobian_assemblies > 0:  # a warm step: the tangent predictor
                 reference, chords = self._chord()
                 report.chord_steps += chords
-            # an iterative preset's failed linear solve (a Newton iterate's tangent that its
-            # preconditioner cannot take) first cuts the step, as a failed Newton step would:
-            # the fallback's factorisation may not fit (measured: the 1.12M-DOF beam's pmg at
-            # a step 0.2 -> 0.4, its MUMPS LU killed for memory on 24 GB)
-            ok, its, reason = self.newton.solve(
-                reference, rtol, fallback=carried or linear_cuts >= LINEAR_CUTS)
-            linear_cuts += int(self.newton.linear_failed)
+            ok, its, reason = self.newton.solve(reference, rtol)
             self.sync()
             report.newton_iterations += its
             if ok:
