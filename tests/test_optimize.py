@@ -315,11 +315,11 @@ def _adjoint_breaks_down_at(monkeypatch, call: int) -> None:
     real = AdjointProblem.solve
     calls = {"n": 0}
 
-    def breaks_down(self, dJdu):
+    def breaks_down(self, *args):
         calls["n"] += 1
         if calls["n"] == call:
             raise AdjointSolveError("adjoint solve failed (KSP reason -5)")
-        return real(self, dJdu)
+        return real(self, *args)
 
     monkeypatch.setattr(AdjointProblem, "solve", breaks_down)
 
