@@ -252,10 +252,11 @@ def _largest_displacement(state: StateProblem, du: PETSc.Vec,
     """The largest |component| of the displacement's part of ``du`` (a vector of the
     unknown's DOFs; ``scratch`` a function on the displacement's space, for a mixed body)
     over all ranks."""
-    if scratch is None:
-        return float(du.norm(PETSc.NormType.INFINITY))
-    state.displacement_of(du, scratch)
-    local = float(np.abs(scratch.x.array).max(initial=0.0))
+    if scratch is None:  # the owned entries (petsc4py 3.25 types norm() as float | tuple)
+        local = float(np.abs(du.getArray(readonly=True)).max(initial=0.0))
+    else:
+        state.displacement_of(du, scratch)
+        local = float(np.abs(scratch.x.array).max(initial=0.0))
     return float(state.domain.mesh.comm.allreduce(local, MPI.MAX))
 
 
