@@ -32,6 +32,14 @@ root_copy_checkout() {
   # The root's own home gets a longer wait; dolfinx 0.9 and 0.11 read this file.
   mkdir -p "$ROOT/root/.config/dolfinx"
   echo '{"timeout": 300}' > "$ROOT/root/.config/dolfinx/dolfinx_jit_options.json"
+  # A compile killed midway (an MPI rank that died) leaves its C file without the
+  # `.c.cached` mark, and every later process waits for it until the timeout: no run is
+  # active here, so such leftovers go
+  local c
+  for c in "$ROOT"/root/.cache/fenics/*.c; do
+    [ -e "$c" ] && [ ! -e "$c.cached" ] && rm -f "$c"
+  done
+  return 0
 }
 
 # proc and sys for MPI (hwloc reads the CPU topology; the wheel's MPICH fails in
