@@ -247,19 +247,6 @@ def settle_carried(problem: StabilityProblem, start: np.ndarray, failed: SolveRe
     return dataclasses.replace(report, reason=f"{failed.reason}; {why}")
 
 
-def _largest_displacement(state: StateProblem, du: PETSc.Vec,
-                          scratch: dolfinx.fem.Function | None) -> float:
-    """The largest |component| of the displacement's part of ``du`` (a vector of the
-    unknown's DOFs; ``scratch`` a function on the displacement's space, for a mixed body)
-    over all ranks."""
-    if scratch is None:  # the owned entries (petsc4py 3.25 types norm() as float | tuple)
-        local = float(np.abs(du.getArray(readonly=True)).max(initial=0.0))
-    else:
-        state.displacement_of(du, scratch)
-        local = float(np.abs(scratch.x.array).max(initial=0.0))
-    return float(state.domain.mesh.comm.allreduce(local, MPI.MAX))
-
-
 def _body_size(state: StateProblem) -> float:
     """The diagonal of the body's box: the scale of a branch switch's moves (collective)."""
     lo, hi = body_box(state.domain.mesh)
@@ -352,7 +339,7 @@ def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int
     r = compat.create_vector(state.residual_form)
     du = problem.K.createVecRight()
     x = compat.petsc_vec(state.w)
-    moved_by = dolfinx.fem.Function(state.V) if state.mixed else None  # du's displacement
+    moved_by = dolfinx.fem.Function(state.V)  # du's displacement: the step cap is of u
     atol = state.newton.snes.getTolerances()[1]
     largest_residual = 0.0
     moved = True  # the residual (and the tangent) are those of the current state otherwise
@@ -380,7 +367,9 @@ def descend(problem: StabilityProblem, shift: float, cap: float, iterations: int
             negative = int(pc.getFactorMatrix().getMumpsInfog(12)) - problem.constraints
             moved = negative == 0
             if moved:
-                largest = _largest_displacement(state, du, moved_by)  # the cap is of u
+                state.displacement_of(du, moved_by)
+                largest = state.domain.mesh.comm.allreduce(
+                    float(np.abs(moved_by.x.array).max(initial=0.0)), MPI.MAX)
                 x.axpy(-min(1.0, cap / largest) if largest > 0 else 0.0, du)
                 state.w.x.scatter_forward()
                 state.sync()
