@@ -326,7 +326,7 @@ class ReducedFunctional:
         dJdw = None
         if penalty is not None:
             with self.timer("adjoint", "stability"):
-                dJdw = penalty.derivative_u()
+                dJdw = penalty.derivative_w()
         with self.timer("adjoint", "adjoint_solve"):
             self.adjoint.solve(dJdu, dJdw)
         with self.timer("adjoint", "sensitivities"):

@@ -73,7 +73,7 @@ class StabilityPenalty:
     def active(self) -> bool:
         return any(float(c.value) != 0.0 for c in self.coefficients)
 
-    def derivative_u(self) -> PETSc.Vec:
+    def derivative_w(self) -> PETSc.Vec:
         """dP/dw at fixed C_g (of the last :meth:`value`): w the state's unknown, a mixed
         body's (u, p)."""
         return assemble(self._du)
