@@ -56,6 +56,8 @@ _API = {
     "read_surface": ("shapegrowth.shape.surface_repair", "read_surface"),
     "write_stl": ("shapegrowth.shape.surface_formats", "write_stl"),
     "RigidFit": ("shapegrowth.shape.rigid_fit", "RigidFit"),
+    "fit_yeoh": ("shapegrowth.config.lab_fits", "fit_yeoh"),
+    "read_tensile_curve": ("shapegrowth.config.lab_fits", "read_tensile_curve"),
 }
 __all__ = [
     "__version__",
@@ -93,6 +95,8 @@ __all__ = [
     "read_surface",
     "write_stl",
     "RigidFit",
+    "fit_yeoh",
+    "read_tensile_curve",
 ]
 
 if TYPE_CHECKING:
@@ -103,6 +107,7 @@ if TYPE_CHECKING:
     from .config import Config
     from .config import from_dict as config_from_dict
     from .config import load as load_config
+    from .config.lab_fits import fit_yeoh, read_tensile_curve
     from .errors import ConfigError, InputError, StateSolveError
     from .io.plotting import draw, surface
     from .io.records import Lifted

@@ -92,11 +92,17 @@ class Preset:
     constants: Mapping[str, float | tuple[float, ...]]
     source: str
     note: str = ""
+    data: str = ""  # the tensile curve it was fitted to: data/lab_materials/<data>.csv
 
 
 # the fits are of incompressible models; the bulk modulus kappa a preset adds is 49.67 mu
 # (Poisson's ratio 0.49 at small strain), which material.kappa overrides
 POISSON = 0.49
+# the silicones: non-negative Yeoh constants fitted by config/lab_fits.py (1 < lambda <= 3) to
+# the uniaxial curves of the Soft Robotics Materials Database (ASTM D412 die C, nominal stress)
+MARECHAL = ("fitted to the uniaxial tensile curve (ASTM D412) of L. Marechal et al., Soft "
+            "Robotics (2020), doi:10.1089/soro.2019.0115, from its Soft Robotics Materials "
+            "Database (ODbL 1.0)")
 PRESETS: dict[str, Preset] = {
     "treloar_ogden": Preset(
         "ogden", {"mu_p": (0.63, 0.0012, -0.01), "alpha_p": (1.3, 5.0, -2.0)},
@@ -108,6 +114,33 @@ PRESETS: dict[str, Preset] = {
         "yeoh", {"c10": 0.11, "c20": 0.02, "c30": 0.0},
         "P. Polygerinos et al., IEEE Trans. Robotics 31 (2015) 778-789 (Wacker Elastosil M4601 "
         "A/B)", "the fibre-reinforced bending actuators' silicone"),
+    "ecoflex_0010": Preset(
+        "yeoh", {"c10": 0.00367, "c20": 0.000126, "c30": 0.0},
+        MARECHAL, "Smooth-On Ecoflex 00-10", "ecoflex_0010"),
+    "ecoflex_0030": Preset(
+        "yeoh", {"c10": 0.00786, "c20": 9.43e-05, "c30": 0.0},
+        MARECHAL, "Smooth-On Ecoflex 00-30", "ecoflex_0030"),
+    "ecoflex_0050": Preset(
+        "yeoh", {"c10": 0.0107, "c20": 0.000231, "c30": 0.0},
+        MARECHAL, "Smooth-On Ecoflex 00-50", "ecoflex_0050"),
+    "dragon_skin_10": Preset(
+        "yeoh", {"c10": 0.025, "c20": 0.00181, "c30": 0.0},
+        MARECHAL, "Smooth-On Dragon Skin 10 Medium", "dragon_skin_10"),
+    "dragon_skin_20": Preset(
+        "yeoh", {"c10": 0.0727, "c20": 0.0042, "c30": 0.0},
+        MARECHAL, "Smooth-On Dragon Skin 20", "dragon_skin_20"),
+    "dragon_skin_30": Preset(
+        "yeoh", {"c10": 0.103, "c20": 0.00509, "c30": 0.0},
+        MARECHAL, "Smooth-On Dragon Skin 30", "dragon_skin_30"),
+    "rtv615": Preset(
+        "yeoh", {"c10": 0.163, "c20": 0.0139, "c30": 0.000939},
+        MARECHAL, "Momentive RTV615 (a PDMS)", "rtv615"),
+    "pva_gel": Preset(
+        "neo_hookean", {"mu": 0.00691},
+        "D. C. Lin et al., Biomech. Model. Mechanobiol. 8 (2009) 345-358, "
+        "doi:10.1007/s10237-008-0139-9, Table 3: a poly(vinyl alcohol) hydrogel in "
+        "compression, the neo-Hookean fit's Young's modulus 20.74 kPa; mu = E/3",
+        "a hydrogel (PVA)"),
 }
 
 
