@@ -191,6 +191,35 @@ def test_a_failed_state_solve_falls_back_to_lu_and_is_counted(shared_tmp, capsys
                             "model's later solves use MUMPS LU")
 
 
+def test_the_exact_fallback_is_factorised_as_auto_factorises_by_size():
+    """LU below AUTO_LDLT_DOFS, LDL^T below AUTO_OOC_DOFS, out of core beyond: a failed
+    iterative solve of a large body does not fall back to the factor with the most memory."""
+    assert linear.exact_preset(linear.AUTO_LDLT_DOFS - 1) == "mumps"
+    assert linear.exact_preset(linear.AUTO_LDLT_DOFS) == "mumps_ldlt"
+    assert linear.exact_preset(linear.AUTO_OOC_DOFS - 1) == "mumps_ldlt"
+    assert linear.exact_preset(linear.AUTO_OOC_DOFS) == "mumps_ooc"
+
+
+def test_a_large_body_s_failed_solve_falls_back_to_ldlt(shared_tmp, capsys, monkeypatch):
+    """The thin beam taken as large (AUTO_LDLT_DOFS 0): GAMG allowed two Krylov iterations
+    fails, the solve is done again by MUMPS's LDL^T (said in one line) and lands where LU
+    does."""
+    sets = ["--set", "parameters.kappa=1.5707963", "--probe", "1,0,0"]
+    assert run_cli("solve", BEND, "--out", shared_tmp / "lu_ref", "-q", *sets) == 0
+    monkeypatch.setattr(linear, "AUTO_LDLT_DOFS", 0)
+    capsys.readouterr()
+    assert run_cli("solve", BEND, "--out", shared_tmp / "gamg_ldlt", "-q", *sets,
+                   "--set", "solver.linear=gamg",
+                   "--set", "solver.petsc_options={state_ksp_max_it: 2}") == 0
+    said = capsys.readouterr()
+    assert _probes(shared_tmp / "gamg_ldlt") == pytest.approx(_probes(shared_tmp / "lu_ref"),
+                                                               abs=1e-9)
+    use = read_json(shared_tmp / "gamg_ldlt" / "summary.json")["linear_solver"]
+    assert use["state_fallbacks"] == linear.GIVE_UP_AFTER
+    lines = [line for line in (said.out + said.err).splitlines() if "falls back" in line]
+    assert lines and all(line.endswith("falls back to MUMPS LDL^T") for line in lines)
+
+
 @pytest.mark.mpi
 def test_a_failed_adjoint_solve_falls_back_and_the_gradient_is_lus(shared_tmp):
     """A fresh adjoint solve by GAMG limited to one Krylov iteration fails; the fallback's

@@ -21,8 +21,8 @@ refinements suffice on a thin beam; this replaces a
 matrix assembly and a factorisation by back-solves and vector assemblies.  Where
 refinement stalls (the factors are of an older state) the tangent is assembled
 and factored anew with the adjoint solver (``solver.linear``'s preset, options
-``adjoint_...``; a failed solve falls back to MUMPS LU), which ``solver.adjoint_reuse:
-false`` always does.
+``adjoint_...``; a failed solve falls back to the state's exact factorisation), which
+``solver.adjoint_reuse: false`` always does.
 """
 
 from __future__ import annotations
@@ -103,7 +103,7 @@ class AdjointProblem:
             self.pmg.prepare(self.ksp, self.A)
         failure = self._fresh_solve(self.ksp, self.options)
         if failure and self.linear != "mumps":
-            linear.record_fallback(self.role, self.linear, failure)
+            linear.record_fallback(self.role, self.linear, failure, st.newton.exact)
             linear.reset_after_failure(self.ksp)
             failure = self._fresh_solve(*self.state.newton.exact_ksp())
         if failure:

@@ -40,9 +40,10 @@ and small 3D ones, the p-multigrid for a solid 3D body of degree 2 from :data:`A
 state DOFs (:func:`solid`), else LDL^T from :data:`AUTO_LDLT_DOFS`, out of core from
 :data:`AUTO_OOC_DOFS`; :func:`why` says which rule chose.
 A failed linear solve (a Krylov breakdown, divergence, a zero pivot) is logged in one line with
-PETSc's reason and repeated with ``mumps`` (:data:`EXACT`); after :data:`GIVE_UP_AFTER` such
-failures in a row, a model's state solves use ``mumps`` (said in one line).  The fallbacks are
-counted per run (:func:`counting`, summary.json ``linear_solver``).
+PETSc's reason and repeated with the exact factorisation :func:`exact_preset` gives the model's
+size (LU, LDL^T, or LDL^T out of core: the sizes ``auto`` factorises by); after
+:data:`GIVE_UP_AFTER` such failures in a row, a model's state solves use it (said in one
+line).  The fallbacks are counted per run (:func:`counting`, summary.json ``linear_solver``).
 """
 
 from __future__ import annotations
@@ -99,6 +100,19 @@ AUTO_OOC_DOFS = 500_000
 # bodies").
 AUTO_PMG_DOFS = 100_000
 AUTO_PMG_ACROSS = 4.0
+
+
+def exact_preset(dofs: int) -> str:
+    """The exact factorisation a failed solve of an iterative preset falls back to on a model
+    of ``dofs`` unknowns: LU below :data:`AUTO_LDLT_DOFS`, LDL^T below :data:`AUTO_OOC_DOFS`,
+    LDL^T out of core beyond (measured: the slender block's LU fallback at 1.12M DOFs was
+    killed for memory at 12.4 GB a rank; docs/PERFORMANCE.md, "A p-multigrid for solid
+    bodies")."""
+    name = ("mumps" if dofs < AUTO_LDLT_DOFS else
+            "mumps_ldlt" if dofs < AUTO_OOC_DOFS else "mumps_ooc")
+    if name == "mumps_ooc":
+        out_of_core_directory()
+    return name
 
 
 def preset_options(name: str, role: str) -> dict[str, object]:
@@ -352,15 +366,19 @@ def count_krylov(solves: int, iterations: int) -> None:
         tally.krylov_iterations += iterations
 
 
-def give_up(role: str, preset: str) -> None:
+EXACT_WORDS = {"mumps": "MUMPS LU", "mumps_ldlt": "MUMPS LDL^T",
+               "mumps_ooc": "MUMPS LDL^T out of core"}
+
+
+def give_up(role: str, preset: str, exact: str = "mumps") -> None:
     log.warning("%s solve: solver.linear %s failed %d solves in a row; this model's later "
-                "solves use MUMPS LU", role.rstrip("_"), preset, GIVE_UP_AFTER)
+                "solves use %s", role.rstrip("_"), preset, GIVE_UP_AFTER, EXACT_WORDS[exact])
 
 
-def record_fallback(role: str, preset: str, reason: str) -> None:
+def record_fallback(role: str, preset: str, reason: str, exact: str = "mumps") -> None:
     """Log a preset's failed solve in one line and count it where a run counts."""
-    log.warning("%s solve: solver.linear %s failed (%s); this solve falls back to MUMPS LU",
-                role.rstrip("_"), preset, reason)
+    log.warning("%s solve: solver.linear %s failed (%s); this solve falls back to %s",
+                role.rstrip("_"), preset, reason, EXACT_WORDS[exact])
     tally = _TALLY.get()
     if tally is not None:
         tally.record(role, reason)

@@ -103,6 +103,7 @@ class NewtonSolver:
                   if cfg.solver.linear == "auto" and dim == 3 and dofs >= linear.AUTO_PMG_DOFS
                   and V.dofmap.index_map_bs == 3 and compat.space_degree(V) == 2 else None)
         self.linear = linear.choose(cfg.solver.linear, dofs, dim, across)
+        self.exact = linear.exact_preset(dofs) if self.linear != "mumps" else "mumps"
         self.linear_reason = linear.why(cfg.solver.linear, self.linear, dofs, dim, across)
         # the p-multigrid's interpolation and coarse operator (physics/pmultigrid.py)
         self.pmg = PMultigrid.of(V) if self.linear == "pmg" else None
@@ -133,12 +134,14 @@ class NewtonSolver:
         self.factored_by_preset = False  # the last solve's factors are the preset's
 
     def exact_ksp(self) -> tuple[PETSc.KSP, SolverOptions]:
-        """The exact factorisation (MUMPS LU) a failed solve of another preset falls back
-        to: a KSP of its own (options prefix ``<state prefix>exact_``), made once, at the
-        first fallback."""
+        """The exact factorisation a failed solve of another preset falls back to (MUMPS LU,
+        LDL^T or LDL^T out of core by the model's size: :func:`linear.exact_preset`): a KSP
+        of its own (options prefix ``<state prefix>exact_``), made once, at the first
+        fallback."""
         if self._exact is None:
             ksp = PETSc.KSP().create(self.comm)
-            options = SolverOptions(self.role, linear.EXACT, prefix=self.options.prefix + "exact_")
+            options = SolverOptions(self.role, linear.preset_options(self.exact, self.role),
+                                    prefix=self.options.prefix + "exact_")
             ksp.setOptionsPrefix(options.prefix)
             with options.pushed():
                 ksp.setFromOptions()
@@ -160,11 +163,11 @@ class NewtonSolver:
             self._preset_failures = 0
             self.factored_by_preset = its > 0
             return ok, its, reason
-        linear.record_fallback(self.role, self.linear, reason)
+        linear.record_fallback(self.role, self.linear, reason, self.exact)
         linear.reset_after_failure(self.snes.getKSP())
         self._preset_failures += 1
         if self._preset_failures == linear.GIVE_UP_AFTER:
-            linear.give_up(self.role, self.linear)
+            linear.give_up(self.role, self.linear, self.exact)
         w.x.array[:] = start
         ok, more, reason = self._exact_solve(reference, rtol)
         return ok, its + more, reason
