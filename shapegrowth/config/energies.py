@@ -103,6 +103,16 @@ POISSON = 0.49
 MARECHAL = ("fitted to the uniaxial tensile curve (ASTM D412) of L. Marechal et al., Soft "
             "Robotics (2020), doi:10.1089/soro.2019.0115, from its Soft Robotics Materials "
             "Database (ODbL 1.0)")
+# name, material, c10, c20, c30 (MPa)
+_FITTED = (
+    ("ecoflex_0010", "Smooth-On Ecoflex 00-10", 0.00367, 0.000126, 0.0),
+    ("ecoflex_0030", "Smooth-On Ecoflex 00-30", 0.00786, 9.43e-05, 0.0),
+    ("ecoflex_0050", "Smooth-On Ecoflex 00-50", 0.0107, 0.000231, 0.0),
+    ("dragon_skin_10", "Smooth-On Dragon Skin 10 Medium", 0.025, 0.00181, 0.0),
+    ("dragon_skin_20", "Smooth-On Dragon Skin 20", 0.0727, 0.0042, 0.0),
+    ("dragon_skin_30", "Smooth-On Dragon Skin 30", 0.103, 0.00509, 0.0),
+    ("rtv615", "Momentive RTV615 (a PDMS)", 0.163, 0.0139, 0.000939),
+)
 PRESETS: dict[str, Preset] = {
     "treloar_ogden": Preset(
         "ogden", {"mu_p": (0.63, 0.0012, -0.01), "alpha_p": (1.3, 5.0, -2.0)},
@@ -114,33 +124,14 @@ PRESETS: dict[str, Preset] = {
         "yeoh", {"c10": 0.11, "c20": 0.02, "c30": 0.0},
         "P. Polygerinos et al., IEEE Trans. Robotics 31 (2015) 778-789 (Wacker Elastosil M4601 "
         "A/B)", "the fibre-reinforced bending actuators' silicone"),
-    "ecoflex_0010": Preset(
-        "yeoh", {"c10": 0.00367, "c20": 0.000126, "c30": 0.0},
-        MARECHAL, "Smooth-On Ecoflex 00-10", "ecoflex_0010"),
-    "ecoflex_0030": Preset(
-        "yeoh", {"c10": 0.00786, "c20": 9.43e-05, "c30": 0.0},
-        MARECHAL, "Smooth-On Ecoflex 00-30", "ecoflex_0030"),
-    "ecoflex_0050": Preset(
-        "yeoh", {"c10": 0.0107, "c20": 0.000231, "c30": 0.0},
-        MARECHAL, "Smooth-On Ecoflex 00-50", "ecoflex_0050"),
-    "dragon_skin_10": Preset(
-        "yeoh", {"c10": 0.025, "c20": 0.00181, "c30": 0.0},
-        MARECHAL, "Smooth-On Dragon Skin 10 Medium", "dragon_skin_10"),
-    "dragon_skin_20": Preset(
-        "yeoh", {"c10": 0.0727, "c20": 0.0042, "c30": 0.0},
-        MARECHAL, "Smooth-On Dragon Skin 20", "dragon_skin_20"),
-    "dragon_skin_30": Preset(
-        "yeoh", {"c10": 0.103, "c20": 0.00509, "c30": 0.0},
-        MARECHAL, "Smooth-On Dragon Skin 30", "dragon_skin_30"),
-    "rtv615": Preset(
-        "yeoh", {"c10": 0.163, "c20": 0.0139, "c30": 0.000939},
-        MARECHAL, "Momentive RTV615 (a PDMS)", "rtv615"),
     "pva_gel": Preset(
         "neo_hookean", {"mu": 0.00691},
         "D. C. Lin et al., Biomech. Model. Mechanobiol. 8 (2009) 345-358, "
         "doi:10.1007/s10237-008-0139-9, Table 3: a poly(vinyl alcohol) hydrogel in "
         "compression, the neo-Hookean fit's Young's modulus 20.74 kPa; mu = E/3",
         "a hydrogel (PVA)"),
+    **{name: Preset("yeoh", {"c10": c10, "c20": c20, "c30": c30}, MARECHAL, material, name)
+       for name, material, c10, c20, c30 in _FITTED},
 }
 
 
