@@ -91,3 +91,11 @@ def test_a_file_without_the_engineering_columns_is_refused_in_one_line(tmp_path)
     path.write_text("Time (s);True Strain;True Stress (MPa)\n0.1;0.01;0.02\n")
     with pytest.raises(InputError, match="no header row naming 'Engineering Strain'"):
         read_tensile_curve(path)
+
+
+def test_a_row_without_numbers_is_refused_naming_its_line(tmp_path):
+    path = tmp_path / "curve.csv"
+    path.write_text("Material;mine\nEngineering Strain;Engineering Stress (MPa)\n0.1;0.02\n"
+                    "0.2;n/a\n")
+    with pytest.raises(InputError, match=r"curve.csv, line 4: no numbers"):
+        read_tensile_curve(path)

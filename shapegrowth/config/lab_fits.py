@@ -85,9 +85,20 @@ def read_tensile_curve(path: Path) -> tuple[np.ndarray, np.ndarray]:
                               if name.startswith("Engineering Stress")), None)
             if stress_at is None:
                 break
-            rows = [row.split(";") for row in lines[i + 1:] if row.strip()]
-            data = np.array([[float(row[strain_at]), float(row[stress_at])] for row in rows])
-            return data[:, 0], data[:, 1]
+            data = []
+            for k, row in enumerate(lines[i + 1:], start=i + 2):
+                if not row.strip():
+                    continue
+                fields = row.split(";")
+                try:
+                    data.append((float(fields[strain_at]), float(fields[stress_at])))
+                except (ValueError, IndexError):
+                    raise InputError(f"{path}, line {k}: no numbers in the engineering strain "
+                                     f"and stress columns ({row.strip()!r})") from None
+            if not data:
+                raise InputError(f"{path}: no rows under its header row")
+            values = np.array(data)
+            return values[:, 0], values[:, 1]
     raise InputError(f"{path}: no header row naming 'Engineering Strain' and "
                      "'Engineering Stress'")
 
