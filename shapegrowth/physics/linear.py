@@ -107,12 +107,9 @@ def exact_preset(dofs: int) -> str:
     of ``dofs`` unknowns: LU below :data:`AUTO_LDLT_DOFS`, LDL^T below :data:`AUTO_OOC_DOFS`,
     LDL^T out of core beyond (measured: the slender block's LU fallback at 1.12M DOFs was
     killed for memory at 12.4 GB a rank; docs/PERFORMANCE.md, "A p-multigrid for solid
-    bodies")."""
-    name = ("mumps" if dofs < AUTO_LDLT_DOFS else
+    bodies"); the factorisation ``auto`` gives a body the p-multigrid does not take."""
+    return ("mumps" if dofs < AUTO_LDLT_DOFS else
             "mumps_ldlt" if dofs < AUTO_OOC_DOFS else "mumps_ooc")
-    if name == "mumps_ooc":
-        out_of_core_directory()
-    return name
 
 
 def preset_options(name: str, role: str) -> dict[str, object]:
@@ -274,9 +271,7 @@ def choose(requested: str, dofs: int, dim: int, across: float | None = None) -> 
     package this PETSc lacks replaced, with one line, by the nearest one it has."""
     name = requested
     if requested == "auto":
-        name = ("mumps" if dim < 3 else "pmg" if solid(dofs, across) else
-                "mumps" if dofs < AUTO_LDLT_DOFS else
-                "mumps_ldlt" if dofs < AUTO_OOC_DOFS else "mumps_ooc")
+        name = "mumps" if dim < 3 else "pmg" if solid(dofs, across) else exact_preset(dofs)
     missing = missing_package(name)
     if missing is not None:
         fallback = "mumps_ldlt" if missing == "hypre" else None

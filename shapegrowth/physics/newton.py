@@ -103,7 +103,9 @@ class NewtonSolver:
                   if cfg.solver.linear == "auto" and dim == 3 and dofs >= linear.AUTO_PMG_DOFS
                   and V.dofmap.index_map_bs == 3 and compat.space_degree(V) == 2 else None)
         self.linear = linear.choose(cfg.solver.linear, dofs, dim, across)
-        self.exact = linear.exact_preset(dofs) if self.linear != "mumps" else "mumps"
+        # an iterative preset's failed solve falls back to the factorisation its size takes;
+        # a direct one's to LU
+        self.exact = linear.exact_preset(dofs) if self.linear in linear.ITERATIVE else "mumps"
         self.linear_reason = linear.why(cfg.solver.linear, self.linear, dofs, dim, across)
         # the p-multigrid's interpolation and coarse operator (physics/pmultigrid.py)
         self.pmg = PMultigrid.of(V) if self.linear == "pmg" else None
@@ -139,6 +141,8 @@ class NewtonSolver:
         of its own (options prefix ``<state prefix>exact_``), made once, at the first
         fallback."""
         if self._exact is None:
+            if self.exact == "mumps_ooc":
+                linear.out_of_core_directory()
             ksp = PETSc.KSP().create(self.comm)
             options = SolverOptions(self.role, linear.preset_options(self.exact, self.role),
                                     prefix=self.options.prefix + "exact_")
