@@ -77,30 +77,34 @@ def read_tensile_curve(path: Path) -> tuple[np.ndarray, np.ndarray]:
     Soft Robotics Materials Database's); the rows above it (the test's description) are
     skipped."""
     lines = Path(path).read_text(encoding="utf-8").splitlines()
-    for i, line in enumerate(lines):
-        names = [name.strip() for name in line.split(";")]
-        if "Engineering Strain" in names:
-            strain_at = names.index("Engineering Strain")
-            stress_at = next((k for k, name in enumerate(names)
-                              if name.startswith("Engineering Stress")), None)
-            if stress_at is None:
-                break
-            data = []
-            for k, row in enumerate(lines[i + 1:], start=i + 2):
-                if not row.strip():
-                    continue
-                fields = row.split(";")
-                try:
-                    data.append((float(fields[strain_at]), float(fields[stress_at])))
-                except (ValueError, IndexError):
-                    raise InputError(f"{path}, line {k}: no numbers in the engineering strain "
-                                     f"and stress columns ({row.strip()!r})") from None
-            if not data:
-                raise InputError(f"{path}: no rows under its header row")
-            values = np.array(data)
-            return values[:, 0], values[:, 1]
-    raise InputError(f"{path}: no header row naming 'Engineering Strain' and "
-                     "'Engineering Stress'")
+    found = next(((i, c) for i, line in enumerate(lines) if (c := _header(line))), None)
+    if found is None:
+        raise InputError(f"{path}: no header row naming 'Engineering Strain' and "
+                         "'Engineering Stress'")
+    first, columns = found[0] + 1, found[1]
+    data = []
+    for k, row in enumerate(lines[first:], start=first + 1):
+        if not row.strip():
+            continue
+        fields = row.split(";")
+        try:
+            data.append((float(fields[columns[0]]), float(fields[columns[1]])))
+        except (ValueError, IndexError):
+            raise InputError(f"{path}, line {k}: no numbers in the engineering strain and "
+                             f"stress columns ({row.strip()!r})") from None
+    if not data:
+        raise InputError(f"{path}: no rows under its header row")
+    values = np.array(data)
+    return values[:, 0], values[:, 1]
+
+
+def _header(line: str) -> tuple[int, int] | None:
+    """The columns of the engineering strain and stress where ``line`` names both."""
+    names = [name.strip() for name in line.split(";")]
+    stress = [k for k, name in enumerate(names) if name.startswith("Engineering Stress")]
+    if "Engineering Strain" in names and stress:
+        return names.index("Engineering Strain"), stress[0]
+    return None
 
 
 def _columns(stretch: np.ndarray) -> np.ndarray:
