@@ -165,6 +165,22 @@ def mixed_space(mesh, degree: int):
         [ufl.VectorElement("CG", cell, degree), ufl.FiniteElement("CG", cell, degree - 1)]))
 
 
+def shell_space(mesh, degree: int):
+    """A shell's unknowns over a plane region: Lagrange vectors of 3 components (the
+    displacement) and of 2 (the director's angles), both of ``degree``."""
+    if AT_LEAST_0_9:  # 0.7 moved elements from ufl to basix.ufl
+        import basix.ufl
+        cell = mesh.basix_cell()
+        element = basix.ufl.mixed_element([
+            basix.ufl.element("Lagrange", cell, degree, shape=(3,)),
+            basix.ufl.element("Lagrange", cell, degree, shape=(2,))])
+        return dolfinx.fem.functionspace(mesh, element)
+    cell = mesh.ufl_cell()
+    return dolfinx.fem.FunctionSpace(mesh, ufl.MixedElement(
+        [ufl.VectorElement("Lagrange", cell, degree, dim=3),
+         ufl.VectorElement("Lagrange", cell, degree, dim=2)]))
+
+
 def scalar_space(mesh, degree: int, family: str = "Lagrange"):
     """Scalar ``family`` ("Lagrange" or "DG") of ``degree``."""
     if AT_LEAST_0_9:  # 0.7: functionspace (FunctionSpace is the class, not a factory)

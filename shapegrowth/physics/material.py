@@ -67,6 +67,11 @@ class Energy:
         return self.psi(F, Cg) if F.ufl_shape == (3, 3) else self.psi_plane_strain(F, Cg)
 
     @property
+    def shear(self) -> float:
+        """The small-strain shear modulus."""
+        raise NotImplementedError
+
+    @property
     def bulk(self) -> float:
         """The modulus of the quadratic volumetric part the mixed formulation splits off."""
         raise NotImplementedError
@@ -103,6 +108,12 @@ class MooneyRivlin(Energy):
     @property
     def bulk(self) -> float:
         return self.lmbda
+
+    @property
+    def shear(self) -> float:
+        """The small-strain shear modulus, mu1 + mu2 (the expansion of (5.1) at F = C_g = I:
+        lam/2 (tr e)^2 + mu e:e with mu = mu1 + mu2 and lam = lambda + 2 mu2)."""
+        return self.mu1 + self.mu2
 
     def psi(self, F: Expr, Cg: Expr) -> Expr:
         """Energy density (5.1) for 3x3 tensors F (deformation gradient) and C_g."""

@@ -1,0 +1,297 @@
+"""A growth shell: the nonlinear Naghdi shell whose rest metric and rest curvature are set
+by a growth that varies linearly through the wall.
+
+The body is its mid-surface, a flat region of the (X1, X2) plane, and its thickness t.
+A growth C_g(zeta) = C_m + zeta C_1 (the tangential 2 x 2 block in the plane's
+coordinates, zeta the height above the mid-surface along its normal) sets
+
+    abar = C_m,     bbar = -C_1 / 2,
+
+the rest first and second fundamental forms: the metric at height zeta of a shell with
+mid-surface phi and director d is g(zeta) = a - 2 zeta b + O(zeta^2), with a = F^T F,
+b = -sym(F^T grad d), F = grad phi, and g(zeta) = C_g(zeta) is what makes the wall
+stress-free to first order in zeta.  A growth whose metric and curvature are those of a
+surface (Gauss and Codazzi hold) is grown stress-free: the closed forms of the tests.
+
+Kinematics and strains are FEniCSx-Shells' nonlinear Naghdi shell: phi = X + u (three
+components over the plane), the director d(theta) = [sin th2 cos th1, -sin th1, cos th2
+cos th1] of two rotation angles from the plane's normal E3, and
+
+    eps = (a - abar) / 2,   kappa = b - bbar,   gamma = F^T d,
+
+measured against the growth instead of the reference.  The energy per unit rest area
+sqrt(det abar) is that of a plane-stress linear isotropic material on the grown metric,
+
+    t/2 eps:A:eps + t^3/24 kappa:A:kappa + t/2 (5/6) mu gamma . abar^-1 gamma,
+    A^abcd = lam_s abar^ab abar^cd + mu (abar^ac abar^bd + abar^ad abar^bc),
+
+lam_s = 2 lam mu / (lam + 2 mu), mu and lam the material's small-strain moduli (the
+shell's strains stay small where the growth is nearly attainable, so the linearisation of
+any of the package's energies is its 2D reduction).  Membrane and shear locking are
+treated by partial selective reduced integration (Arnold and Brezzi): a share t^2 / h^2 of
+those two terms at the full quadrature degree 4, the rest at degree 2, bending at 4.
+P2 for u and theta.
+
+The growth is reached by continuation: the rest forms move from the plane's (abar = I,
+bbar = 0) to the growth's in steps, each solved by Newton's method (PETSc SNES, an
+options prefix of its own), a failed step halved.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc
+import dolfinx.mesh
+import numpy as np
+import ufl
+from petsc4py import PETSc
+
+from .. import compat
+from .material import Energy, MooneyRivlin
+from .options import SolverOptions
+
+log = logging.getLogger(__name__)
+
+SHEAR_FACTOR = 5.0 / 6.0
+FULL_DEGREE = 4  # bending, and the t^2/h^2 share of membrane and shear
+REDUCED_DEGREE = 2  # the rest of membrane and shear (PSRI); degree 1 gave spurious modes
+
+
+@dataclass(frozen=True)
+class ShellMaterial:
+    """The small-strain moduli of the wall's material (Lame's lam and mu)."""
+
+    mu: float
+    lam: float
+
+    @property
+    def plane_stress_lam(self) -> float:
+        """lam_s = 2 lam mu / (lam + 2 mu): the first Lame modulus of plane stress (2 mu
+        for an incompressible material, lam infinite)."""
+        if math.isinf(self.lam):
+            return 2.0 * self.mu
+        return 2.0 * self.lam * self.mu / (self.lam + 2.0 * self.mu)
+
+    @classmethod
+    def of_energy(cls, energy: Energy) -> ShellMaterial:
+        """The small-strain moduli of one of the package's energies (physics/material.py):
+        for (5.1), mu = mu1 + mu2 and lam = lambda + 2 mu2 (its expansion at F = C_g = I to
+        second order: lam/2 (tr e)^2 + mu e:e); for the others, their shear modulus and
+        lam = kappa - 2 mu / 3.  Incompressible (no bulk modulus): lam infinite."""
+        mu = float(energy.shear)
+        if isinstance(energy, MooneyRivlin):
+            return cls(mu, energy.lmbda + 2.0 * energy.mu2 if energy.lmbda > 0 else math.inf)
+        bulk = float(energy.bulk)
+        return cls(mu, bulk - 2.0 * mu / 3.0 if bulk > 0 else math.inf)
+
+    @classmethod
+    def of_young(cls, young: float, poisson: float) -> ShellMaterial:
+        mu = young / (2.0 * (1.0 + poisson))
+        return cls(mu, 2.0 * mu * poisson / (1.0 - 2.0 * poisson))
+
+
+@dataclass(frozen=True)
+class RestForms:
+    """The growth's rest forms: ``metric`` abar = C_m and ``curvature`` bbar = -C_1 / 2, UFL
+    2 x 2 tensors over the shell's plane."""
+
+    metric: ufl.core.expr.Expr
+    curvature: ufl.core.expr.Expr
+
+    @classmethod
+    def of_growth(cls, middle: ufl.core.expr.Expr, gradient: ufl.core.expr.Expr) -> RestForms:
+        """From the growth's tangential block at the mid-surface (C_m) and its derivative
+        through the thickness (C_1)."""
+        return cls(middle, -0.5 * gradient)
+
+    @classmethod
+    def of_stretches(cls, frame: ufl.core.expr.Expr, middle: ufl.core.expr.Expr,
+                     slope: ufl.core.expr.Expr) -> RestForms:
+        """A growth of principal stretches lam_i(zeta) = middle_i + zeta slope_i along the
+        orthonormal in-plane directions ``frame`` (rows v_1, v_2): C_g = sum lam_i^2 v_i v_i,
+        so C_m = sum middle_i^2 v_i v_i and C_1 = sum 2 middle_i slope_i v_i v_i."""
+        v = [ufl.as_vector([frame[i, 0], frame[i, 1]]) for i in range(2)]
+        metric = sum(middle[i] ** 2 * ufl.outer(v[i], v[i]) for i in range(2))
+        gradient = sum(2.0 * middle[i] * slope[i] * ufl.outer(v[i], v[i]) for i in range(2))
+        return cls.of_growth(metric, gradient)
+
+
+def director(theta: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+    """d = [sin th2 cos th1, -sin th1, cos th2 cos th1]: E3 turned by the two angles."""
+    return ufl.as_vector([ufl.sin(theta[1]) * ufl.cos(theta[0]), -ufl.sin(theta[0]),
+                          ufl.cos(theta[1]) * ufl.cos(theta[0])])
+
+
+@dataclass
+class ShellSolveReport:
+    """How a solve from rest went."""
+
+    converged: bool
+    steps: int
+    newton_iterations: int
+    level: float  # the share of the growth reached
+
+
+class GrowthShell:
+    """The shell on ``mesh`` (a triangle mesh of the plane, gdim 2) of thickness
+    ``thickness``, clamped (u = 0, theta = 0) on the boundary facets where ``clamped(x)``
+    holds, grown towards ``rest``."""
+
+    def __init__(self, mesh, thickness: float, material: ShellMaterial, rest: RestForms,
+                 clamped: Callable[[np.ndarray], np.ndarray], degree: int = 2):
+        if mesh.geometry.dim != 2 or mesh.topology.dim != 2:
+            raise ValueError("the shell's reference is a plane region: a triangle mesh "
+                             "of gdim 2")
+        self.mesh, self.thickness, self.material = mesh, thickness, material
+        self.V = compat.shell_space(mesh, degree)
+        self.q = dolfinx.fem.Function(self.V)
+        self.level = compat.constant(mesh, 0.0)  # the share of the growth applied
+        u, theta = ufl.split(self.q)
+        eye = ufl.Identity(2)
+        s = self.level
+        abar = eye + s * (rest.metric - eye)
+        bbar = s * rest.curvature
+        X = ufl.SpatialCoordinate(mesh)
+        phi = ufl.as_vector([X[0] + u[0], X[1] + u[1], u[2]])
+        F = ufl.grad(phi)  # 3 x 2
+        d = director(theta)
+        a = F.T * F
+        b = -0.5 * (F.T * ufl.grad(d) + ufl.grad(d).T * F)
+        eps, kappa, gamma = 0.5 * (a - abar), b - bbar, F.T * d
+        inv = ufl.inv(abar)
+        mu, lam_s, t = material.mu, material.plane_stress_lam, thickness
+        i, j, k, m = ufl.indices(4)
+        A = ufl.as_tensor(lam_s * inv[i, j] * inv[k, m]
+                          + mu * (inv[i, k] * inv[j, m] + inv[i, m] * inv[j, k]), (i, j, k, m))
+
+        def quadratic(e):
+            return ufl.as_tensor(A[i, j, k, m] * e[k, m], (i, j))[i, j] * e[i, j]
+
+        area = ufl.sqrt(ufl.det(abar))
+        membrane = 0.5 * t * quadratic(eps) * area
+        bending = t**3 / 24.0 * quadratic(kappa) * area
+        shear = 0.5 * t * SHEAR_FACTOR * mu * ufl.dot(gamma, inv * gamma) * area
+        share = t**2 / ufl.CellDiameter(mesh) ** 2
+        full = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": FULL_DEGREE})
+        reduced = ufl.Measure("dx", domain=mesh,
+                              metadata={"quadrature_degree": REDUCED_DEGREE})
+        self.energy = (bending + share * (membrane + shear)) * full \
+            + (1.0 - share) * (membrane + shear) * reduced
+        test, trial = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
+        residual = ufl.derivative(self.energy, self.q, test)
+        self.residual_form = dolfinx.fem.form(residual)
+        self.jacobian_form = dolfinx.fem.form(ufl.derivative(residual, self.q, trial))
+        self.energy_form = dolfinx.fem.form(self.energy)
+        self.bcs = self._clamp(clamped)
+        self.A = compat.assemble_matrix(self.jacobian_form, self.bcs)
+        self.A.assemble()
+        self.b = compat.create_vector(self.residual_form)
+        self._snes = self._newton()
+
+    # ---- the equations ---------------------------------------------------------------------
+
+    def _clamp(self, clamped) -> list:
+        fdim = self.mesh.topology.dim - 1
+        facets = dolfinx.mesh.locate_entities_boundary(self.mesh, fdim, clamped)
+        bcs = []
+        for field in range(2):
+            sub = self.V.sub(field)
+            space, _ = sub.collapse()
+            zero = dolfinx.fem.Function(space)
+            dofs = dolfinx.fem.locate_dofs_topological((sub, space), fdim, facets)
+            bcs.append(dolfinx.fem.dirichletbc(zero, dofs, sub))
+        return bcs
+
+    def _at(self, x: PETSc.Vec) -> None:
+        """The unknowns q <- x (ghosts updated)."""
+        q = compat.petsc_vec(self.q)
+        if x.handle != q.handle:
+            x.copy(q)
+        q.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+
+    def _residual(self, _snes, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        self._at(x)
+        with b.localForm() as local:
+            local.set(0.0)
+        dolfinx.fem.petsc.assemble_vector(b, self.residual_form)
+        compat.apply_lifting(b, [self.jacobian_form], [self.bcs], [x], alpha=-1.0)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        compat.set_bc(b, self.bcs, x, alpha=-1.0)
+
+    def _tangent(self, _snes, x: PETSc.Vec, A: PETSc.Mat, _P: PETSc.Mat) -> None:
+        self._at(x)  # a line search's last residual may have been at a rejected point
+        A.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(A, self.jacobian_form, bcs=self.bcs)
+        A.assemble()
+
+    def _newton(self) -> PETSc.SNES:
+        snes = PETSc.SNES().create(self.mesh.comm)
+        self.options = SolverOptions("state_", {
+            "snes_type": "newtonls", "snes_linesearch_type": "basic", "snes_max_it": 25,
+            "snes_rtol": 1e-10, "snes_atol": 1e-12 * self._force_scale(), "snes_stol": 0.0,
+            "ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"})
+        snes.setOptionsPrefix(self.options.prefix)
+        snes.setFunction(self._residual, self.b)
+        snes.setJacobian(self._tangent, self.A)
+        with self.options.pushed():
+            snes.setFromOptions()
+        return snes
+
+    def _force_scale(self) -> float:
+        """mu t times the plane region's area: the size of a residual of unit strain."""
+        one = dolfinx.fem.form(compat.constant(self.mesh, 1.0) * ufl.dx(domain=self.mesh))
+        area = self.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(one))
+        return self.material.mu * self.thickness * float(area)
+
+    # ---- the solve -------------------------------------------------------------------------
+
+    def solve(self, initial_step: float = 0.25, min_step: float = 1.0 / 256) -> ShellSolveReport:
+        """Grow from where the last solve ended to the whole growth, by continuation."""
+        q = compat.petsc_vec(self.q)
+        # SNES's own iterate: the callbacks copy the point they are given into q, so q
+        # must not be the iterate a line search steps from
+        x = q.copy()
+        level, step, steps, iterations = float(self.level.value), initial_step, 0, 0
+        while level < 1.0:
+            trial = min(1.0, level + step)
+            saved = x.copy()
+            self.level.value = trial
+            with self.options.pushed():
+                self._snes.solve(None, x)
+            reason = self._snes.getConvergedReason()
+            iterations += self._snes.getIterationNumber()
+            if reason > 0:
+                self._at(x)
+                level, steps = trial, steps + 1
+                step = min(2.0 * step, initial_step)
+                continue
+            saved.copy(x)
+            self._at(x)
+            self.level.value = level
+            step *= 0.5
+            if step < min_step:
+                log.warning("shell: no equilibrium past %.4g of the growth", level)
+                return ShellSolveReport(False, steps, iterations, level)
+        return ShellSolveReport(True, steps, iterations, level)
+
+    # ---- results ---------------------------------------------------------------------------
+
+    def mid_surface(self) -> tuple[np.ndarray, np.ndarray]:
+        """The owned P2 nodes' reference points (n, 2) and their deformed places phi (n, 3)."""
+        U, dofs = self.V.sub(0).collapse()
+        u = dolfinx.fem.Function(U)
+        u.x.array[:] = self.q.x.array[dofs]
+        owned = U.dofmap.index_map.size_local
+        X = U.tabulate_dof_coordinates()[:owned, :2]
+        phi = u.x.array.reshape(-1, 3)[:owned].copy()
+        phi[:, :2] += X
+        return X, phi
+
+    def energy_value(self) -> float:
+        return float(self.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(self.energy_form)))
