@@ -143,11 +143,13 @@ def geometry_degree(mesh) -> int:
     return int(cmap.degree)
 
 
-def vector_space(mesh, degree: int):
-    """Continuous Lagrange vectors of the mesh's geometric dimension."""
+def vector_space(mesh, degree: int, components: int | None = None):
+    """Continuous Lagrange vectors of ``components`` (the mesh's geometric dimension
+    where None)."""
+    size = mesh.geometry.dim if components is None else components
     if AT_LEAST_0_9:  # 0.7 replaced VectorFunctionSpace by functionspace with a shape
-        return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (mesh.geometry.dim,)))
-    return dolfinx.fem.VectorFunctionSpace(mesh, ("CG", degree))
+        return dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (size,)))
+    return dolfinx.fem.VectorFunctionSpace(mesh, ("CG", degree), dim=size)
 
 
 def mixed_space(mesh, degree: int):

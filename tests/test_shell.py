@@ -10,6 +10,7 @@ import pytest
 import ufl
 from mpi4py import MPI
 
+from shapegrowth import compat
 from shapegrowth.physics.material import Isochoric, MooneyRivlin, Ogden
 from shapegrowth.physics.shell import GrowthShell, RestForms, ShellMaterial
 
@@ -95,3 +96,53 @@ def test_an_incompressible_material_has_the_plane_stress_modulus_2_mu():
     assert math.isinf(material.lam)
     assert material.plane_stress_lam == pytest.approx(1.4)
     assert ShellMaterial(1.0, 4.0).plane_stress_lam == pytest.approx(8.0 / 6.0)
+
+
+@pytest.mark.mpi
+def test_the_shell_s_adjoint_gradient_passes_its_taylor_test():
+    """dJ/dm by the adjoint for the four stretch fields (two at the mid-surface, two slopes
+    through the wall, P1): J(m + h dm) - J(m) - h dJ.dm falls like h^2 (measured: 2.00 on
+    1 and 2 ranks), J a misfit of the mid-surface plus a term in m itself."""
+    comm = MPI.COMM_WORLD
+    mesh = dolfinx.mesh.create_rectangle(
+        comm, [np.array([0.0, 0.0]), np.array([LENGTH, WIDTH])], [12, 2],
+        dolfinx.mesh.CellType.triangle)
+    space = compat.vector_space(mesh, 1, 4)
+    m = dolfinx.fem.Function(space)
+    m.interpolate(lambda x: np.vstack([1.1 + 0.05 * x[0], 1.0 + 0.0 * x[0],
+                                       1.2 + 0.3 * x[0], 0.1 + 0.0 * x[0]]))
+    rest = RestForms.of_stretches(ufl.Identity(2), ufl.as_vector([m[0], m[1]]),
+                                  ufl.as_vector([m[2], m[3]]))
+    shell = GrowthShell(mesh, WALL, ShellMaterial.of_energy(MooneyRivlin()), rest,
+                        lambda x: np.isclose(x[0], 0.0), design=m)
+    assert shell.solve().converged
+    X = ufl.SpatialCoordinate(mesh)
+    target = ufl.as_vector([0.8 * X[0], X[1], -0.3 * X[0] ** 2])
+    dx = ufl.dx(domain=mesh, metadata={"quadrature_degree": 4})
+    J = (ufl.inner(shell.phi - target, shell.phi - target) + 1e-3 * m[2] ** 2) * dx
+    j0, gradient = shell.gradient(J)
+    dm = dolfinx.fem.Function(space)
+    dm.interpolate(lambda x: np.vstack([0.05 * np.sin(3 * x[0]), 0.02 * np.cos(2 * x[0]),
+                                        0.3 * np.cos(4 * x[0]), 0.1 * x[0]]))
+    owned = space.dofmap.index_map.size_local * space.dofmap.index_map_bs
+    slope = comm.allreduce(float(gradient.x.array[:owned] @ dm.x.array[:owned]))
+    start = m.x.array.copy()
+    remainders = []
+    for h in (0.1, 0.05, 0.025):
+        m.x.array[:] = start + h * dm.x.array
+        assert shell.solve().converged
+        value = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(J)))
+        remainders.append(abs(value - j0 - h * slope))
+    rates = [math.log2(a / b) for a, b in zip(remainders, remainders[1:])]
+    assert min(rates) > 1.9, (remainders, rates)
+
+
+def test_a_shell_without_a_design_has_no_gradient():
+    mesh = dolfinx.mesh.create_rectangle(
+        MPI.COMM_SELF, [np.array([0.0, 0.0]), np.array([1.0, 0.1])], [2, 1],
+        dolfinx.mesh.CellType.triangle)
+    rest = RestForms(ufl.Identity(2), ufl.zero(2, 2))
+    shell = GrowthShell(mesh, WALL, ShellMaterial(1.0, 4.0), rest,
+                        lambda x: np.isclose(x[0], 0.0))
+    with pytest.raises(ValueError, match="without a design"):
+        shell.gradient(ufl.inner(shell.phi, shell.phi) * ufl.dx(domain=mesh))

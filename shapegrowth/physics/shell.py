@@ -141,10 +141,12 @@ class ShellSolveReport:
 class GrowthShell:
     """The shell on ``mesh`` (a triangle mesh of the plane, gdim 2) of thickness
     ``thickness``, clamped (u = 0, theta = 0) on the boundary facets where ``clamped(x)``
-    holds, grown towards ``rest``."""
+    holds, grown towards ``rest``.  ``design``: the Function the rest forms are made of,
+    where gradients with respect to it are wanted (:meth:`gradient`)."""
 
     def __init__(self, mesh, thickness: float, material: ShellMaterial, rest: RestForms,
-                 clamped: Callable[[np.ndarray], np.ndarray], degree: int = 2):
+                 clamped: Callable[[np.ndarray], np.ndarray], degree: int = 2,
+                 design: dolfinx.fem.Function | None = None):
         if mesh.geometry.dim != 2 or mesh.topology.dim != 2:
             raise ValueError("the shell's reference is a plane region: a triangle mesh "
                              "of gdim 2")
@@ -159,6 +161,7 @@ class GrowthShell:
         bbar = s * rest.curvature
         X = ufl.SpatialCoordinate(mesh)
         phi = ufl.as_vector([X[0] + u[0], X[1] + u[1], u[2]])
+        self.phi = phi  # the deformed mid-surface, for objectives
         F = ufl.grad(phi)  # 3 x 2
         d = director(theta)
         a = F.T * F
@@ -188,6 +191,12 @@ class GrowthShell:
         self.residual_form = dolfinx.fem.form(residual)
         self.jacobian_form = dolfinx.fem.form(ufl.derivative(residual, self.q, trial))
         self.energy_form = dolfinx.fem.form(self.energy)
+        self.design = design
+        if design is not None:  # (dR/dm)^T lam: the residual along lam, differentiated in m
+            self._lam = dolfinx.fem.Function(self.V)
+            along = ufl.derivative(self.energy, self.q, self._lam)
+            self._design_form = dolfinx.fem.form(
+                ufl.derivative(along, design, ufl.TestFunction(design.function_space)))
         self.bcs = self._clamp(clamped)
         self.A = compat.assemble_matrix(self.jacobian_form, self.bcs)
         self.A.assemble()
@@ -252,7 +261,22 @@ class GrowthShell:
     # ---- the solve -------------------------------------------------------------------------
 
     def solve(self, initial_step: float = 0.25, min_step: float = 1.0 / 256) -> ShellSolveReport:
-        """Grow from where the last solve ended to the whole growth, by continuation."""
+        """Grow from where the last solve ended to the whole growth, by continuation; where
+        the whole growth was reached before (a new design), Newton from the last equilibrium
+        first, and from rest where that fails."""
+        if float(self.level.value) >= 1.0:
+            x = compat.petsc_vec(self.q).copy()
+            with self.options.pushed():
+                self._snes.solve(None, x)
+            iterations = self._snes.getIterationNumber()
+            if self._snes.getConvergedReason() > 0:
+                self._at(x)
+                return ShellSolveReport(True, 1, iterations, 1.0)
+            self.q.x.array[:] = 0.0
+            self.level.value = 0.0
+        return self._continue(initial_step, min_step)
+
+    def _continue(self, initial_step: float, min_step: float) -> ShellSolveReport:
         q = compat.petsc_vec(self.q)
         # SNES's own iterate: the callbacks copy the point they are given into q, so q
         # must not be the iterate a line search steps from
@@ -292,6 +316,49 @@ class GrowthShell:
         phi = u.x.array.reshape(-1, 3)[:owned].copy()
         phi[:, :2] += X
         return X, phi
+
+    def gradient(self, objective: ufl.Form) -> tuple[float, dolfinx.fem.Function]:
+        """J and dJ/dm at the current equilibrium for a functional ``objective`` J(q, m) (an
+        integral over the plane: of :attr:`phi`, :attr:`q`, the design): the adjoint
+        K lam = dJ/dq (the tangent K is symmetric; lam = 0 where q is clamped), then
+        dJ/dm = dJ/dm|_q - (dR/dm)^T lam."""
+        if self.design is None:
+            raise ValueError("the shell was built without a design: no gradient")
+        comm = self.mesh.comm
+        value = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(objective)))
+        rhs = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(
+            ufl.derivative(objective, self.q, ufl.TestFunction(self.V))))
+        rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        compat.set_bc(rhs, self.bcs, None, alpha=0.0)
+        self._tangent(None, compat.petsc_vec(self.q), self.A, self.A)
+        ksp = PETSc.KSP().create(comm)
+        ksp.setOperators(self.A)
+        ksp.setType("preonly")
+        ksp.getPC().setType("lu")
+        ksp.getPC().setFactorSolverType("mumps")
+        lam = compat.petsc_vec(self._lam)
+        ksp.solve(rhs, lam)
+        lam.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        ksp.destroy()
+        space = self.design.function_space
+        mhat = ufl.TestFunction(space)
+        gradient = dolfinx.fem.Function(space)
+        g = compat.petsc_vec(gradient)
+        explicit = ufl.derivative(objective, self.design, mhat)
+        if explicit.empty():
+            g.set(0.0)
+        else:
+            dolfinx.fem.petsc.assemble_vector(g, dolfinx.fem.form(explicit))
+        g.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        adjoint = dolfinx.fem.petsc.assemble_vector(self._design_form)
+        # each part's ghost contributions to their owners before the sum: axpy adds only
+        # the owned entries
+        adjoint.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        g.axpy(-1.0, adjoint)
+        g.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        adjoint.destroy()
+        rhs.destroy()
+        return float(value), gradient
 
     def energy_value(self) -> float:
         return float(self.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(self.energy_form)))
