@@ -168,18 +168,23 @@ def mixed_space(mesh, degree: int):
 
 
 def shell_space(mesh, degree: int):
-    """A shell's unknowns over a plane region: Lagrange vectors of 3 components (the
-    displacement) and of 2 (the director's angles), both of ``degree``."""
+    """A shell's unknowns over a plane region: the displacement, 3 components of Lagrange
+    ``degree`` enriched by the cubic bubble, and the director's 2 angles, Lagrange
+    ``degree`` (FEniCSx-Shells' nonlinear Naghdi element)."""
     if AT_LEAST_0_9:  # 0.7 moved elements from ufl to basix.ufl
         import basix.ufl
         cell = mesh.basix_cell()
+        enriched = basix.ufl.enriched_element([
+            basix.ufl.element("Lagrange", cell, degree), basix.ufl.element("Bubble", cell, 3)])
         element = basix.ufl.mixed_element([
-            basix.ufl.element("Lagrange", cell, degree, shape=(3,)),
+            basix.ufl.blocked_element(enriched, shape=(3,)),
             basix.ufl.element("Lagrange", cell, degree, shape=(2,))])
         return dolfinx.fem.functionspace(mesh, element)
     cell = mesh.ufl_cell()
+    enriched = ufl.EnrichedElement(ufl.FiniteElement("Lagrange", cell, degree),
+                                   ufl.FiniteElement("Bubble", cell, 3))
     return dolfinx.fem.FunctionSpace(mesh, ufl.MixedElement(
-        [ufl.VectorElement("Lagrange", cell, degree, dim=3),
+        [ufl.VectorElement(enriched, dim=3),
          ufl.VectorElement("Lagrange", cell, degree, dim=2)]))
 
 

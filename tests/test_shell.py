@@ -22,7 +22,8 @@ LENGTH, WIDTH, WALL = 1.0, 0.1, 0.01
 STRETCH, ANGLE = 1.1, math.pi / 2  # the mid-surface's stretch; the angle the strip turns
 
 
-def _rolled_strip(cells: int, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[float, GrowthShell]:
+def _rolled_strip(cells: int, comm: MPI.Comm = MPI.COMM_WORLD,
+                  wall: float = WALL) -> tuple[float, GrowthShell]:
     """The strip grown by lam_1(zeta) = STRETCH + zeta lam', lam' = ANGLE / LENGTH, lam_2 = 1;
     the largest distance of a mid-surface node from the cylinder that growth makes
     stress-free, and the shell."""
@@ -32,7 +33,7 @@ def _rolled_strip(cells: int, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[float, G
     slope = ANGLE / LENGTH
     rest = RestForms.of_stretches(ufl.Identity(2), ufl.as_vector([STRETCH, 1.0]),
                                   ufl.as_vector([slope, 0.0]))
-    shell = GrowthShell(mesh, WALL, ShellMaterial.of_energy(MooneyRivlin()), rest,
+    shell = GrowthShell(mesh, wall, ShellMaterial.of_energy(MooneyRivlin()), rest,
                         lambda x: np.isclose(x[0], 0.0))
     report = shell.solve()
     assert report.converged and report.level == 1.0
@@ -50,20 +51,31 @@ def _rolled_strip(cells: int, comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[float, G
 def test_a_strip_with_a_growth_gradient_through_its_wall_rolls_into_its_cylinder():
     """Timoshenko's bilayer in its graded form: a growth that varies linearly through the wall,
     lam(zeta) = lam_m + zeta lam', is the metric of a cylinder of curvature lam' / lam_m, in
-    3D as in the shell; the shell reaches it stress-free, at P2's rate (measured: errors
-    1.470e-2, 2.113e-3, 1.938e-4 at 8, 16, 32 cells along; rates 2.80 and 3.45)."""
+    3D as in the shell; the shell reaches it stress-free, at the rate its one-point membrane
+    term allows (measured: errors 2.337e-3, 5.884e-4, 1.420e-4 at 8, 16, 32 cells along;
+    rates 1.99 and 2.05; the same on 2 ranks)."""
     errors = [_rolled_strip(n)[0] for n in (8, 16, 32)]
     rates = [math.log2(a / b) for a, b in zip(errors, errors[1:])]
-    assert min(rates) > 2.5, (errors, rates)
-    assert errors[-1] < 3e-4 * LENGTH
-    # the same numbers on any number of ranks (serial and 2 ranks: 2.11330e-3 at 16 cells)
-    assert errors[1] == pytest.approx(2.11330e-3, rel=1e-5)
+    assert min(rates) > 1.8, (errors, rates)
+    assert errors[-1] < 2e-4 * LENGTH
+    assert errors[1] == pytest.approx(5.88447e-4, rel=1e-5)
+
+
+def test_the_shell_does_not_lock_at_a_wall_of_one_600th():
+    """t/L 1/600, the thinnest of the paper's walls: the strip rolls as at 1/100 (measured:
+    2.338e-3 and 5.946e-4 at 8 and 16 cells, against 2.337e-3 and 5.884e-4; with the membrane
+    term at quadrature degree 2, 6.0e-3 and 3.9e-3)."""
+    thin = [_rolled_strip(n, MPI.COMM_SELF, wall=LENGTH / 600)[0] for n in (8, 16)]
+    thick = [_rolled_strip(n, MPI.COMM_SELF)[0] for n in (8, 16)]
+    for a, b in zip(thin, thick):
+        assert a < 1.1 * b, (thin, thick)
 
 
 def test_a_strip_grown_stress_free_keeps_no_energy_at_the_mesh_s_rate():
-    """The roll is attainable: the energy left at the discrete equilibrium falls with h."""
+    """The roll is attainable: the energy left at the discrete equilibrium falls like h^2
+    (measured: 1.69e-11, 4.30e-12 at 8, 16 cells)."""
     energies = [_rolled_strip(n, MPI.COMM_SELF)[1].energy_value() for n in (8, 16)]
-    assert energies[1] < energies[0] / 5.0
+    assert energies[1] < energies[0] / 3.0
 
 
 def _expansion_error(energy, strain: float) -> float:
@@ -187,15 +199,15 @@ def _lifted_roll(cells: int, size: float, folder) -> ShellLift:
 @pytest.mark.mpi
 def test_the_shell_s_growth_lifted_onto_the_3d_wall_grows_the_same_roll(tmp_path_factory):
     """The shell's growth carried onto the 3D box linear through the wall, grown from rest
-    there: the 3D wall leaves the shell's phi + zeta d by its discretisation error only
-    (measured: 6.84e-3, 4.88e-4, 2.18e-5 of the size at 3D mesh sizes 0.05, 0.025, 0.0125
-    with 16, 32, 64 shell cells; the same on 2 ranks)."""
+    there: the 3D wall leaves the shell's phi + zeta d by their discretisation errors only
+    (measured: 8.44e-3 and 5.58e-4 of the size at 3D mesh sizes 0.05 and 0.025 with 16 and
+    32 shell cells; the same on 2 ranks)."""
     folder = tmp_path_factory.mktemp("lift") if MPI.COMM_WORLD.rank == 0 else None
     folder = MPI.COMM_WORLD.bcast(folder)
     coarse = _lifted_roll(16, 0.05, folder)
     fine = _lifted_roll(32, 0.025, folder)
     assert coarse.converged and fine.converged
-    assert coarse.departure == pytest.approx(6.8415e-3, rel=1e-3)
+    assert coarse.departure == pytest.approx(8.4420e-3, rel=1e-3)
     assert fine.departure < coarse.departure / 8.0
     assert fine.departure < 1e-3
 

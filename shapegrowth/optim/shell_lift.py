@@ -87,7 +87,7 @@ def departure(shell: GrowthShell, solid: ForwardModel) -> float:
     u3 = solid.state.u
     space = u3.function_space
     mesh = space.mesh
-    u, theta = _component(shell.q, 0), _component(shell.q, 1)
+    u, theta = shell.displacement(), shell.angles()
     shell_u = _on_solid(u, space).reshape(-1, 3)
     angles = _on_solid(theta, compat.vector_space(mesh, compat.space_degree(space), 2)
                        ).reshape(-1, 2)
