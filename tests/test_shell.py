@@ -197,6 +197,7 @@ def _lifted_roll(cells: int, size: float, folder) -> ShellLift:
 
 
 @pytest.mark.mpi
+@pytest.mark.simplex
 def test_the_shell_s_growth_lifted_onto_the_3d_wall_grows_the_same_roll(tmp_path_factory):
     """The shell's growth carried onto the 3D box linear through the wall, grown from rest
     there: the 3D wall leaves the shell's phi + zeta d by their discretisation errors only
