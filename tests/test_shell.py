@@ -222,3 +222,29 @@ def test_a_shell_lifts_only_onto_a_wall_of_the_cartesian_frame(tmp_path):
         dolfinx.mesh.CellType.triangle)
     with pytest.raises(ValueError, match="Cartesian frame"):
         lift_shell_growth(dolfinx.fem.Function(compat.vector_space(mesh, 1, 4)), solid)
+
+
+def _clamped_strip_under(strain: float) -> int:
+    """The strip clamped at both ends, grown by lam_1 = 1 + strain: the flat equilibrium's
+    negative tangent eigenvalues."""
+    mesh = dolfinx.mesh.create_rectangle(
+        MPI.COMM_WORLD, [np.array([0.0, 0.0]), np.array([LENGTH, WIDTH])], [32, 4],
+        dolfinx.mesh.CellType.triangle)
+    rest = RestForms.of_stretches(ufl.Identity(2), ufl.as_vector([1.0 + strain, 1.0]),
+                                  ufl.as_vector([0.0, 0.0]))
+    shell = GrowthShell(mesh, WALL, ShellMaterial.of_energy(MooneyRivlin()), rest,
+                        lambda x: np.isclose(x[0], 0.0) | np.isclose(x[0], LENGTH))
+    assert shell.solve().converged
+    return shell.negative_eigenvalues()
+
+
+@pytest.mark.mpi
+def test_a_strip_clamped_at_both_ends_buckles_at_euler_s_growth():
+    """Growth along a strip held at both ends compresses it; its flat state loses stability
+    where the compression reaches Euler's clamped-clamped load, a growth strain of
+    pi^2 t^2 / (3 L^2) (the shell's tangent, counted by its inertia).  Measured by bisection:
+    1.042, 1.027, 1.022 x Euler's at 16, 32, 64 cells along (the clamped ends hold the
+    anticlastic curvature a beam has)."""
+    euler = math.pi**2 * WALL**2 / (3.0 * LENGTH**2)
+    assert _clamped_strip_under(0.97 * euler) == 0
+    assert _clamped_strip_under(1.06 * euler) == 1

@@ -385,5 +385,25 @@ class GrowthShell:
         rhs.destroy()
         return float(value), gradient
 
+    def negative_eigenvalues(self) -> int:
+        """The tangent's negative eigenvalues at the current state, the inertia of MUMPS's
+        LDL^T of it (the clamped rows are the identity's): 0 where the equilibrium is stable
+        (collective)."""
+        self._tangent(None, compat.petsc_vec(self.q), self.A, self.A)
+        self.A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+        options = SolverOptions("stability_", {
+            "ksp_type": "preonly", "pc_type": "cholesky", "pc_factor_mat_solver_type": "mumps",
+            "mat_mumps_icntl_13": 1,  # no ScaLAPACK root: its pivots are not counted
+            "mat_mumps_icntl_24": 0})
+        ksp = PETSc.KSP().create(self.mesh.comm)
+        ksp.setOptionsPrefix(options.prefix)
+        ksp.setOperators(self.A)
+        with options.pushed():
+            ksp.setFromOptions()
+            ksp.setUp()
+        negative = int(ksp.getPC().getFactorMatrix().getMumpsInfog(12))
+        ksp.destroy()
+        return negative
+
     def energy_value(self) -> float:
         return float(self.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(self.energy_form)))
