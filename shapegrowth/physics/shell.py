@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import dolfinx
@@ -51,6 +51,7 @@ import dolfinx.fem.petsc
 import dolfinx.mesh
 import numpy as np
 import ufl
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import compat
@@ -138,6 +139,16 @@ def director(theta: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
                           ufl.cos(theta[1]) * ufl.cos(theta[0])])
 
 
+@dataclass(frozen=True)
+class Pin:
+    """A field held at zero at a mesh vertex: ``field`` 0 the displacement, 1 the director's
+    angles; ``component`` one of its components, or None for all."""
+
+    point: tuple[float, float]
+    field: int
+    component: int | None = None
+
+
 @dataclass
 class ShellSolveReport:
     """How a solve from rest went."""
@@ -151,12 +162,13 @@ class ShellSolveReport:
 class GrowthShell:
     """The shell on ``mesh`` (a triangle mesh of the plane, gdim 2) of thickness
     ``thickness``, clamped (u = 0, theta = 0) on the boundary facets where ``clamped(x)``
-    holds, grown towards ``rest``.  ``design``: the Function the rest forms are made of,
-    where gradients with respect to it are wanted (:meth:`gradient`)."""
+    holds (None: nowhere), and held at ``pins``, grown towards ``rest``.  ``design``: the
+    Function the rest forms are made of, where gradients with respect to it are wanted
+    (:meth:`gradient`)."""
 
     def __init__(self, mesh, thickness: float, material: ShellMaterial, rest: RestForms,
-                 clamped: Callable[[np.ndarray], np.ndarray], degree: int = 2,
-                 design: dolfinx.fem.Function | None = None):
+                 clamped: Callable[[np.ndarray], np.ndarray] | None, degree: int = 2,
+                 design: dolfinx.fem.Function | None = None, pins: Sequence[Pin] = ()):
         if mesh.geometry.dim != 2 or mesh.topology.dim != 2:
             raise ValueError("the shell's reference is a plane region: a triangle mesh "
                              "of gdim 2")
@@ -207,7 +219,8 @@ class GrowthShell:
             along = ufl.derivative(self.energy, self.q, self._lam)
             self._design_form = dolfinx.fem.form(
                 ufl.derivative(along, design, ufl.TestFunction(design.function_space)))
-        self.bcs = self._clamp(clamped)
+        self.bcs = (self._clamp(clamped) if clamped is not None else []) + \
+            [self._pin(pin) for pin in pins]
         self.A = compat.assemble_matrix(self.jacobian_form, self.bcs)
         self.A.assemble()
         self.b = compat.create_vector(self.residual_form)
@@ -226,6 +239,20 @@ class GrowthShell:
             dofs = dolfinx.fem.locate_dofs_topological((sub, space), fdim, facets)
             bcs.append(dolfinx.fem.dirichletbc(zero, dofs, sub))
         return bcs
+
+    def _pin(self, pin: Pin):
+        sub = self.V.sub(pin.field)
+        if pin.component is not None:
+            sub = sub.sub(pin.component)
+        space, _ = sub.collapse()
+        point = np.array([pin.point[0], pin.point[1]])
+        vertices = dolfinx.mesh.locate_entities(
+            self.mesh, 0, lambda x: np.isclose(x[0], point[0]) & np.isclose(x[1], point[1]))
+        dofs = dolfinx.fem.locate_dofs_topological((sub, space), 0, vertices)
+        found = self.mesh.comm.allreduce(len(vertices), op=MPI.SUM)
+        if found == 0:
+            raise ValueError(f"shell: no mesh vertex at the pinned point {pin.point}")
+        return dolfinx.fem.dirichletbc(dolfinx.fem.Function(space), dofs, sub)
 
     def _at(self, x: PETSc.Vec) -> None:
         """The unknowns q <- x (ghosts updated)."""
@@ -273,7 +300,10 @@ class GrowthShell:
     def solve(self, initial_step: float = 0.25, min_step: float = 1.0 / 256) -> ShellSolveReport:
         """Grow from where the last solve ended to the whole growth, by continuation; where
         the whole growth was reached before (a new design), Newton from the last equilibrium
-        first, and from rest where that fails."""
+        first, and from rest where that fails.  Where the flat state can buckle either way
+        (a metric of K != 0), the step decides the branch: a disk grown into a spherical cap
+        in steps of 1/4 ended on the mirror cap at 16 cells across, in steps of 1/20 on the
+        cap (tests/test_shell.py)."""
         if float(self.level.value) >= 1.0:
             x = compat.petsc_vec(self.q).copy()
             with self.options.pushed():
