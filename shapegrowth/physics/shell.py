@@ -248,10 +248,11 @@ class GrowthShell:
         point = np.array([pin.point[0], pin.point[1]])
         vertices = dolfinx.mesh.locate_entities(
             self.mesh, 0, lambda x: np.isclose(x[0], point[0]) & np.isclose(x[1], point[1]))
-        dofs = dolfinx.fem.locate_dofs_topological((sub, space), 0, vertices)
-        found = self.mesh.comm.allreduce(len(vertices), op=MPI.SUM)
-        if found == 0:
+        if self.mesh.comm.allreduce(len(vertices), op=MPI.SUM) == 0:
             raise ValueError(f"shell: no mesh vertex at the pinned point {pin.point}")
+        # dolfinx 0.9 and later find a vertex's dofs through its cells, made on demand
+        self.mesh.topology.create_connectivity(0, self.mesh.topology.dim)
+        dofs = dolfinx.fem.locate_dofs_topological((sub, space), 0, vertices)
         return dolfinx.fem.dirichletbc(dolfinx.fem.Function(space), dofs, sub)
 
     def _at(self, x: PETSc.Vec) -> None:
