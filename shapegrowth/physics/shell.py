@@ -310,7 +310,7 @@ class GrowthShell:
             with self.options.pushed():
                 self._snes.solve(None, x)
             iterations = self._snes.getIterationNumber()
-            if self._snes.getConvergedReason() > 0:
+            if int(self._snes.getConvergedReason()) > 0:
                 self._at(x)
                 return ShellSolveReport(True, 1, iterations, 1.0)
             self.q.x.array[:] = 0.0
@@ -329,7 +329,7 @@ class GrowthShell:
             self.level.value = trial
             with self.options.pushed():
                 self._snes.solve(None, x)
-            reason = self._snes.getConvergedReason()
+            reason = int(self._snes.getConvergedReason())
             iterations += self._snes.getIterationNumber()
             if reason > 0:
                 self._at(x)
