@@ -55,6 +55,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .. import compat
+from .linear import reason_of
 from .material import Energy, MooneyRivlin
 from .options import SolverOptions
 
@@ -310,7 +311,7 @@ class GrowthShell:
             with self.options.pushed():
                 self._snes.solve(None, x)
             iterations = self._snes.getIterationNumber()
-            if int(self._snes.getConvergedReason()) > 0:
+            if reason_of(self._snes) > 0:
                 self._at(x)
                 return ShellSolveReport(True, 1, iterations, 1.0)
             self.q.x.array[:] = 0.0
@@ -329,7 +330,7 @@ class GrowthShell:
             self.level.value = trial
             with self.options.pushed():
                 self._snes.solve(None, x)
-            reason = int(self._snes.getConvergedReason())
+            reason = reason_of(self._snes)
             iterations += self._snes.getIterationNumber()
             if reason > 0:
                 self._at(x)
