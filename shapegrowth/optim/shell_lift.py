@@ -27,7 +27,7 @@ from .. import compat
 from ..physics.boundary import body_box
 from ..physics.model import ForwardModel
 from ..physics.paths import solve_watched
-from ..physics.shell import GrowthShell
+from ..physics.shell import GrowthShell, sub_function
 from ..physics.transfer import interpolate_between_meshes
 
 log = logging.getLogger(__name__)
@@ -54,14 +54,6 @@ def _on_solid(source: dolfinx.fem.Function, space) -> np.ndarray:
     return target.x.array
 
 
-def _component(f: dolfinx.fem.Function, i: int) -> dolfinx.fem.Function:
-    """Component (or sub-field) ``i`` of ``f`` as a Function of its own space."""
-    space, dofs = f.function_space.sub(i).collapse()
-    part = dolfinx.fem.Function(space)
-    part.x.array[:] = f.x.array[dofs]
-    return part
-
-
 def lift_shell_growth(stretches: dolfinx.fem.Function, solid: ForwardModel) -> None:
     """Set the 3D box's growth to the shell's ``stretches`` (m_1, m_2, s_1, s_2) linear
     through the wall (collective)."""
@@ -69,7 +61,7 @@ def lift_shell_growth(stretches: dolfinx.fem.Function, solid: ForwardModel) -> N
     if growth.frame != "cartesian" or len(growth.eigenvalues) != 3 or growth.angles:
         raise ValueError("a shell's growth lifts onto a 3D body of the Cartesian frame")
     mid = _mid_plane(solid)
-    parts = [_on_solid(_component(stretches, i), growth.space) for i in range(4)]
+    parts = [_on_solid(sub_function(stretches, i), growth.space) for i in range(4)]
     zeta = growth.space.tabulate_dof_coordinates()[:, 2] - mid
     for i in range(2):
         growth.eigenvalues[i].x.array[:] = (parts[i] + zeta * parts[i + 2]) ** 2

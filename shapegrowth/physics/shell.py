@@ -98,11 +98,6 @@ class ShellMaterial:
         bulk = float(energy.bulk)
         return cls(mu, bulk - 2.0 * mu / 3.0 if bulk > 0 else math.inf)
 
-    @classmethod
-    def of_young(cls, young: float, poisson: float) -> ShellMaterial:
-        mu = young / (2.0 * (1.0 + poisson))
-        return cls(mu, 2.0 * mu * poisson / (1.0 - 2.0 * poisson))
-
 
 @dataclass(frozen=True)
 class RestForms:
@@ -130,6 +125,14 @@ class RestForms:
         return cls.of_growth(metric, gradient)
 
 
+def sub_function(f: dolfinx.fem.Function, i: int) -> dolfinx.fem.Function:
+    """Sub-field (or component) ``i`` of ``f`` as a Function of its own space."""
+    space, dofs = f.function_space.sub(i).collapse()
+    part = dolfinx.fem.Function(space)
+    part.x.array[:] = f.x.array[dofs]
+    return part
+
+
 def _measure(mesh, degree: int) -> ufl.Measure:
     return ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": degree})
 
@@ -152,7 +155,7 @@ class Pin:
 
 @dataclass
 class ShellSolveReport:
-    """How a solve from rest went."""
+    """How a solve went (from rest, or from the last equilibrium for a new design)."""
 
     converged: bool
     steps: int
@@ -362,17 +365,11 @@ class GrowthShell:
 
     def displacement(self) -> dolfinx.fem.Function:
         """u as a Function of its own space."""
-        return self._part(0)
+        return sub_function(self.q, 0)
 
     def angles(self) -> dolfinx.fem.Function:
         """The director's angles theta as a Function of their own space."""
-        return self._part(1)
-
-    def _part(self, i: int) -> dolfinx.fem.Function:
-        space, dofs = self.V.sub(i).collapse()
-        part = dolfinx.fem.Function(space)
-        part.x.array[:] = self.q.x.array[dofs]
-        return part
+        return sub_function(self.q, 1)
 
     def gradient(self, objective: ufl.Form) -> tuple[float, dolfinx.fem.Function]:
         """J and dJ/dm at the current equilibrium for a functional ``objective`` J(q, m) (an
