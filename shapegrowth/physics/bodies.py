@@ -166,14 +166,22 @@ def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
         gmsh.model.mesh.generate(tdim)
     except Exception as err:
         # gmsh's high-order optimisation reports the cells it left below its goal (a scaled
-        # Jacobian of 0.1) as an error after the mesh is made; it is kept where no cell is
-        # tangled, as the cells dolfinx is given are checked again (check_cells)
-        if OPTIMISER_SHORT not in str(err) or not _untangled(gmsh, tdim):
+        # Jacobian of 0.1) as an error after the mesh is made: the mesh is kept, its tangled
+        # cells (if any) made straight-sided below
+        if OPTIMISER_SHORT not in str(err):
             raise _refuse(f"gmsh could not mesh '{path}' at size {size:g} ({err}); repair "
                           "the part or change mesh.size") from None
         log.warning("mesh.size: gmsh left some curved cells of '%s' below its quality goal "
-                    "(%s); none is tangled (each Jacobian positive at its nodes and "
-                    "quadrature points), so the mesh is kept", path, err)
+                    "(%s)", path, err)
+    if cfg.mesh.cells == "simplex":
+        straightened = _straighten_tangled(gmsh, tdim)
+        if straightened < 0:
+            raise _refuse(f"gmsh could not mesh '{path}' at size {size:g} (cells tangled "
+                          "even with straight sides); repair the part or change mesh.size")
+        if straightened:
+            log.warning("mesh.size: %d curved cells of '%s' were tangled (a Jacobian not "
+                        "positive at a node or Gauss point): their edges are made straight",
+                        straightened, path)
     if tdim == 2:  # the nodes, not OpenCASCADE's box (widened by the part's tolerance)
         _check_plane(_node_box(gmsh), path)
     kinds = [gmsh.model.mesh.getElementProperties(t)[0]
@@ -186,20 +194,49 @@ def _mesh_cad(gmsh, cfg: Config, path: Path, tdim: int) -> None:
                       "hexahedra", "mesh.cells")
 
 
-def _untangled(gmsh, tdim: int) -> bool:
-    """Whether every cell of dimension ``tdim`` in gmsh's mesh has a positive Jacobian
-    determinant at its nodes and at the points of a degree-4 Gauss rule."""
-    for kind in gmsh.model.mesh.getElementTypes(tdim):
-        nodes = gmsh.model.mesh.getElementProperties(kind)[4]
-        gauss = gmsh.model.mesh.getIntegrationPoints(kind, "Gauss4")[0]
-        points = np.concatenate([np.asarray(nodes, dtype=float).reshape(-1, tdim),
-                                 np.asarray(gauss, dtype=float).reshape(-1, 3)[:, :tdim]])
-        local = np.zeros((len(points), 3))
-        local[:, :tdim] = points
-        determinants = gmsh.model.mesh.getJacobians(kind, local.reshape(-1))[1]
-        if len(determinants) and np.min(determinants) <= 0.0:
-            return False
-    return True
+def _tangled(gmsh, kind: int, tdim: int) -> np.ndarray:
+    """Which cells of gmsh's element type ``kind`` have a Jacobian determinant not positive
+    at a node or at a point of a degree-4 Gauss rule (a boolean per element)."""
+    nodes = gmsh.model.mesh.getElementProperties(kind)[4]
+    gauss = gmsh.model.mesh.getIntegrationPoints(kind, "Gauss4")[0]
+    points = np.concatenate([np.asarray(nodes, dtype=float).reshape(-1, tdim),
+                             np.asarray(gauss, dtype=float).reshape(-1, 3)[:, :tdim]])
+    local = np.zeros((len(points), 3))
+    local[:, :tdim] = points
+    determinants = np.asarray(gmsh.model.mesh.getJacobians(kind, local.reshape(-1))[1])
+    return np.min(determinants.reshape(-1, len(points)), axis=1) <= 0.0
+
+
+def _straighten_tangled(gmsh, tdim: int, rounds: int = 20) -> int:
+    """Moves each mid-edge node of a tangled curved cell to its edge's midpoint, round
+    after round (a straightened edge is shared by neighbours), until no cell is tangled:
+    a straight-sided second-order cell is its linear cell, positive where gmsh's first-order
+    mesh is.  The number of cells straightened, -1 where some stay tangled."""
+    done: set[int] = set()
+    for _ in range(rounds):
+        left = 0
+        for kind in gmsh.model.mesh.getElementTypes(tdim):
+            _, _, order, count, reference, corners = gmsh.model.mesh.getElementProperties(kind)
+            bad = _tangled(gmsh, kind, tdim)
+            if order < 2 or not bad.any():
+                continue
+            tags, nodes = gmsh.model.mesh.getElementsByType(kind)
+            nodes = np.asarray(nodes, dtype=np.int64).reshape(-1, count)
+            reference = np.asarray(reference, dtype=float).reshape(count, tdim)
+            # each higher-order node as the midpoint of two corners (second order)
+            pairs = [(k, i, j) for k in range(corners, count)
+                     for i in range(corners) for j in range(i + 1, corners)
+                     if np.allclose(reference[k], 0.5 * (reference[i] + reference[j]))]
+            for cell in np.flatnonzero(bad):
+                done.add(int(tags[cell]))
+                left += 1
+                for k, i, j in pairs:
+                    a = np.asarray(gmsh.model.mesh.getNode(int(nodes[cell, i]))[0])
+                    b = np.asarray(gmsh.model.mesh.getNode(int(nodes[cell, j]))[0])
+                    gmsh.model.mesh.setNode(int(nodes[cell, k]), list(0.5 * (a + b)), [])
+        if not left:
+            return len(done)
+    return -1
 
 
 def _import(gmsh, path: Path) -> None:
