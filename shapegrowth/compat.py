@@ -209,14 +209,19 @@ def quadrature_space(mesh, degree: int, vector: bool = False):
         mesh, family("Quadrature", mesh.ufl_cell(), degree, quad_scheme="default"))
 
 
-def create_mesh(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray, cell: str):
-    """A degree-1 simplex mesh of ``cell`` ("triangle"/"tetrahedron") from arrays."""
+def create_mesh(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray, cell: str,
+                degree: int = 1):
+    """A simplex mesh of ``cell`` ("triangle"/"tetrahedron") from arrays, of geometric
+    dimension x.shape[1] (a triangle mesh of a surface in space where it is 3) and
+    Lagrange geometry of ``degree`` (cells' nodes in DOLFINx's order: vertices, then
+    edges)."""
     gdim = x.shape[1]
     if AT_LEAST_0_9:  # 0.7: the coordinate element is a basix.ufl element
         import basix.ufl
-        domain = ufl.Mesh(basix.ufl.element("Lagrange", cell, 1, shape=(gdim,)))
+        domain = ufl.Mesh(basix.ufl.element("Lagrange", cell, degree, shape=(gdim,)))
     else:
-        domain = ufl.Mesh(ufl.VectorElement("Lagrange", cell, 1))
+        domain = ufl.Mesh(ufl.VectorElement(
+            "Lagrange", ufl.Cell(cell, geometric_dimension=gdim), degree))
     if AT_LEAST_0_9:  # 0.10 put the element before the points: named, as 0.9 names them
         return dolfinx.mesh.create_mesh(comm, cells, e=domain, x=x)
     return dolfinx.mesh.create_mesh(comm, cells, x, domain)
@@ -258,6 +263,23 @@ def geometry_nodes(mesh) -> np.ndarray:
     if AT_LEAST_0_9:  # 0.7 made the geometry dofmap a 2D array
         return np.asarray(dofmap)
     return dofmap.array.reshape(-1, dofmap.offsets[1] - dofmap.offsets[0])
+
+
+def cell_diameter(mesh) -> dolfinx.fem.Function:
+    """Each cell's diameter (its longest edge between corners) as a DG0 Function: UFL's
+    CellDiameter is not generated for curved (second-order) cells."""
+    space = scalar_space(mesh, 0, "DG")
+    tdim = mesh.topology.dim
+    nodes = geometry_nodes(mesh)[:, :tdim + 1]  # each cell's corners come first
+    x = mesh.geometry.x[nodes]
+    longest = np.zeros(len(nodes))
+    for i in range(tdim + 1):
+        for j in range(i + 1, tdim + 1):
+            longest = np.maximum(longest, np.linalg.norm(x[:, i] - x[:, j], axis=1))
+    h = dolfinx.fem.Function(space)
+    dofs = np.array([space.dofmap.cell_dofs(c)[0] for c in range(len(nodes))], dtype=np.int64)
+    h.x.array[dofs] = longest
+    return h
 
 
 def petsc_vec(f: dolfinx.fem.Function):

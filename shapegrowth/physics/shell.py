@@ -1,26 +1,19 @@
 """A growth shell: the nonlinear Naghdi shell whose rest metric and rest curvature are set
 by a growth that varies linearly through the wall.
 
-The body is its mid-surface, a flat region of the (X1, X2) plane, and its thickness t.
-A growth C_g(zeta) = C_m + zeta C_1 (the tangential 2 x 2 block in the plane's
-coordinates, zeta the height above the mid-surface along its normal) sets
+The body is its mid-surface and its thickness t: a plane region, or a surface in space with
+a frame on it (physics/shell_forms.py: the :class:`Reference`; the rest forms abar, bbar
+the growth sets, :class:`RestForms`).  Kinematics and strains are FEniCSx-Shells' nonlinear
+Naghdi shell: phi = X + u (three components), the director d(theta) the reference's normal
+turned by two angles, F = D phi (the derivative along the frame's tangents), and
 
-    abar = C_m,     bbar = -C_1 / 2,
+    a = F^T F,   b = -sym(F^T D d),   eps = (a - abar) / 2,   kappa = b - bbar,
+    gamma = F^T d,
 
-the rest first and second fundamental forms: the metric at height zeta of a shell with
-mid-surface phi and director d is g(zeta) = a - 2 zeta b + O(zeta^2), with a = F^T F,
-b = -sym(F^T grad d), F = grad phi, and g(zeta) = C_g(zeta) is what makes the wall
-stress-free to first order in zeta.  A growth whose metric and curvature are those of a
-surface (Gauss and Codazzi hold) is grown stress-free: the closed forms of the tests.
-
-Kinematics and strains are FEniCSx-Shells' nonlinear Naghdi shell: phi = X + u (three
-components over the plane), the director d(theta) = [sin th2 cos th1, -sin th1, cos th2
-cos th1] of two rotation angles from the plane's normal E3, and
-
-    eps = (a - abar) / 2,   kappa = b - bbar,   gamma = F^T d,
-
-measured against the growth instead of the reference.  The energy per unit rest area
-sqrt(det abar) is that of a plane-stress linear isotropic material on the grown metric,
+measured against the growth instead of the reference.  A growth whose metric and curvature
+are those of a surface (Gauss and Codazzi hold) is grown stress-free: the closed forms of the
+tests.  The energy per unit rest area sqrt(det abar) is that of a plane-stress linear
+isotropic material on the grown metric,
 
     t/2 eps:A:eps + t^3/24 kappa:A:kappa + t/2 (5/6) mu gamma . abar^-1 gamma,
     A^abcd = lam_s abar^ab abar^cd + mu (abar^ac abar^bd + abar^ad abar^bc),
@@ -33,15 +26,14 @@ those two terms at the full quadrature degree 4, the rest of the membrane term a
 and of the shear term at degree 2 (measured: :data:`MEMBRANE_DEGREE`), bending at 4.
 P2 enriched by the cubic bubble for u, P2 for theta.
 
-The growth is reached by continuation: the rest forms move from the plane's (abar = I,
-bbar = 0) to the growth's in steps, each solved by Newton's method (PETSc SNES, an
-options prefix of its own), a failed step halved.
+The growth is reached by continuation: the rest forms move from the reference's own
+(abar = I, bbar = B0) to the growth's in steps, each solved by Newton's method (PETSc SNES,
+an options prefix of its own), a failed step halved.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -56,8 +48,11 @@ from petsc4py import PETSc
 
 from .. import compat
 from .linear import reason_of
-from .material import Energy, MooneyRivlin
 from .options import SolverOptions
+from .shell_forms import Reference, RestForms, ShellMaterial
+
+__all__ = ["GrowthShell", "Pin", "Reference", "RestForms", "ShellMaterial",
+           "ShellSolveReport", "sub_function"]
 
 log = logging.getLogger(__name__)
 
@@ -69,60 +64,6 @@ FULL_DEGREE = 4  # bending, and the t^2/h^2 share of membrane and shear
 # 1.4e-4 at both (rate 2 whatever the wall).  Shear at degree 1 found no equilibrium.
 MEMBRANE_DEGREE = 1
 SHEAR_DEGREE = 2
-
-
-@dataclass(frozen=True)
-class ShellMaterial:
-    """The small-strain moduli of the wall's material (Lame's lam and mu)."""
-
-    mu: float
-    lam: float
-
-    @property
-    def plane_stress_lam(self) -> float:
-        """lam_s = 2 lam mu / (lam + 2 mu): the first Lame modulus of plane stress (2 mu
-        for an incompressible material, lam infinite)."""
-        if math.isinf(self.lam):
-            return 2.0 * self.mu
-        return 2.0 * self.lam * self.mu / (self.lam + 2.0 * self.mu)
-
-    @classmethod
-    def of_energy(cls, energy: Energy) -> ShellMaterial:
-        """The small-strain moduli of one of the package's energies (physics/material.py):
-        for (5.1), mu = mu1 + mu2 and lam = lambda + 2 mu2 (its expansion at F = C_g = I to
-        second order: lam/2 (tr e)^2 + mu e:e); for the others, their shear modulus and
-        lam = kappa - 2 mu / 3.  Incompressible (no bulk modulus): lam infinite."""
-        mu = float(energy.shear)
-        if isinstance(energy, MooneyRivlin):
-            return cls(mu, energy.lmbda + 2.0 * energy.mu2 if energy.lmbda > 0 else math.inf)
-        bulk = float(energy.bulk)
-        return cls(mu, bulk - 2.0 * mu / 3.0 if bulk > 0 else math.inf)
-
-
-@dataclass(frozen=True)
-class RestForms:
-    """The growth's rest forms: ``metric`` abar = C_m and ``curvature`` bbar = -C_1 / 2, UFL
-    2 x 2 tensors over the shell's plane."""
-
-    metric: ufl.core.expr.Expr
-    curvature: ufl.core.expr.Expr
-
-    @classmethod
-    def of_growth(cls, middle: ufl.core.expr.Expr, gradient: ufl.core.expr.Expr) -> RestForms:
-        """From the growth's tangential block at the mid-surface (C_m) and its derivative
-        through the thickness (C_1)."""
-        return cls(middle, -0.5 * gradient)
-
-    @classmethod
-    def of_stretches(cls, frame: ufl.core.expr.Expr, middle: ufl.core.expr.Expr,
-                     slope: ufl.core.expr.Expr) -> RestForms:
-        """A growth of principal stretches lam_i(zeta) = middle_i + zeta slope_i along the
-        orthonormal in-plane directions ``frame`` (rows v_1, v_2): C_g = sum lam_i^2 v_i v_i,
-        so C_m = sum middle_i^2 v_i v_i and C_1 = sum 2 middle_i slope_i v_i v_i."""
-        v = [ufl.as_vector([frame[i, 0], frame[i, 1]]) for i in range(2)]
-        metric = sum(middle[i] ** 2 * ufl.outer(v[i], v[i]) for i in range(2))
-        gradient = sum(2.0 * middle[i] * slope[i] * ufl.outer(v[i], v[i]) for i in range(2))
-        return cls.of_growth(metric, gradient)
 
 
 def sub_function(f: dolfinx.fem.Function, i: int) -> dolfinx.fem.Function:
@@ -137,18 +78,12 @@ def _measure(mesh, degree: int) -> ufl.Measure:
     return ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": degree})
 
 
-def director(theta: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
-    """d = [sin th2 cos th1, -sin th1, cos th2 cos th1]: E3 turned by the two angles."""
-    return ufl.as_vector([ufl.sin(theta[1]) * ufl.cos(theta[0]), -ufl.sin(theta[0]),
-                          ufl.cos(theta[1]) * ufl.cos(theta[0])])
-
-
 @dataclass(frozen=True)
 class Pin:
     """A field held at zero at a mesh vertex: ``field`` 0 the displacement, 1 the director's
     angles; ``component`` one of its components, or None for all."""
 
-    point: tuple[float, float]
+    point: tuple[float, ...]  # (X1, X2) on a plane, (X1, X2, X3) on a surface in space
     field: int
     component: int | None = None
 
@@ -164,35 +99,38 @@ class ShellSolveReport:
 
 
 class GrowthShell:
-    """The shell on ``mesh`` (a triangle mesh of the plane, gdim 2) of thickness
-    ``thickness``, clamped (u = 0, theta = 0) on the boundary facets where ``clamped(x)``
-    holds (None: nowhere), and held at ``pins``, grown towards ``rest``.  ``design``: the
-    Function the rest forms are made of, where gradients with respect to it are wanted
-    (:meth:`gradient`)."""
+    """The shell on ``mesh`` (a triangle mesh: of the plane, gdim 2, or of a surface in
+    space, gdim 3, whose frame ``reference`` gives) of thickness ``thickness``, clamped
+    (u = 0, theta = 0) on the boundary facets where ``clamped(x)`` holds (None: nowhere),
+    and held at ``pins``, grown towards ``rest``.  ``design``: the Function the rest forms
+    are made of, where gradients with respect to it are wanted (:meth:`gradient`)."""
 
     def __init__(self, mesh, thickness: float, material: ShellMaterial, rest: RestForms,
                  clamped: Callable[[np.ndarray], np.ndarray] | None, degree: int = 2,
-                 design: dolfinx.fem.Function | None = None, pins: Sequence[Pin] = ()):
-        if mesh.geometry.dim != 2 or mesh.topology.dim != 2:
-            raise ValueError("the shell's reference is a plane region: a triangle mesh "
-                             "of gdim 2")
+                 design: dolfinx.fem.Function | None = None, pins: Sequence[Pin] = (),
+                 reference: Reference | None = None):
+        if reference is None:
+            reference = Reference.plane(mesh)
+        elif reference.mesh is not mesh:
+            raise ValueError("the shell's reference is a frame on its own mesh")
         self.mesh, self.thickness, self.material = mesh, thickness, material
-        self.degree = degree
+        self.reference, self.degree = reference, degree
         self.V = compat.shell_space(mesh, degree)
         self.q = dolfinx.fem.Function(self.V)
         self.level = compat.constant(mesh, 0.0)  # the share of the growth applied
         u, theta = ufl.split(self.q)
         eye = ufl.Identity(2)
         s = self.level
+        B0 = reference.curvature
         abar = eye + s * (rest.metric - eye)
-        bbar = s * rest.curvature
-        X = ufl.SpatialCoordinate(mesh)
-        phi = ufl.as_vector([X[0] + u[0], X[1] + u[1], u[2]])
+        bbar = B0 + s * (rest.curvature - B0)
+        phi = reference.position() + u
         self.phi = phi  # the deformed mid-surface, for objectives
-        F = ufl.grad(phi)  # 3 x 2
-        d = director(theta)
+        F = reference.derivative(phi)  # 3 x 2
+        d = reference.director(theta)
         a = F.T * F
-        b = -0.5 * (F.T * ufl.grad(d) + ufl.grad(d).T * F)
+        Dd = reference.derivative(d)
+        b = -0.5 * (F.T * Dd + Dd.T * F)
         eps, kappa, gamma = 0.5 * (a - abar), b - bbar, F.T * d
         inv = ufl.inv(abar)
         mu, lam_s, t = material.mu, material.plane_stress_lam, thickness
@@ -207,7 +145,7 @@ class GrowthShell:
         membrane = 0.5 * t * quadratic(eps) * area
         bending = t**3 / 24.0 * quadratic(kappa) * area
         shear = 0.5 * t * SHEAR_FACTOR * mu * ufl.dot(gamma, inv * gamma) * area
-        share = t**2 / ufl.CellDiameter(mesh) ** 2
+        share = t**2 / compat.cell_diameter(mesh) ** 2
         full = _measure(mesh, FULL_DEGREE)
         self.energy = (bending + share * (membrane + shear)) * full \
             + (1.0 - share) * membrane * _measure(mesh, MEMBRANE_DEGREE) \
@@ -249,9 +187,12 @@ class GrowthShell:
         if pin.component is not None:
             sub = sub.sub(pin.component)
         space, _ = sub.collapse()
-        point = np.array([pin.point[0], pin.point[1]])
+        point = np.asarray(pin.point, dtype=float)
+        if len(point) != self.mesh.geometry.dim:
+            raise ValueError(f"shell: a pinned point has {self.mesh.geometry.dim} "
+                             f"coordinates here, not {len(point)}")
         vertices = dolfinx.mesh.locate_entities(
-            self.mesh, 0, lambda x: np.isclose(x[0], point[0]) & np.isclose(x[1], point[1]))
+            self.mesh, 0, lambda x: np.all(np.isclose(x[:len(point)].T, point), axis=1))
         if self.mesh.comm.allreduce(len(vertices), op=MPI.SUM) == 0:
             raise ValueError(f"shell: no mesh vertex at the pinned point {pin.point}")
         # dolfinx 0.9 and later find a vertex's dofs through its cells, made on demand
@@ -327,9 +268,12 @@ class GrowthShell:
         # must not be the iterate a line search steps from
         x = q.copy()
         level, step, steps, iterations = float(self.level.value), initial_step, 0, 0
+        before: tuple[float, PETSc.Vec] | None = None  # the equilibrium one step back
         while level < 1.0:
             trial = min(1.0, level + step)
             saved = x.copy()
+            if before is not None:  # the secant predictor: the path's last step, extended
+                x.axpy((trial - level) / (level - before[0]), x - before[1])
             self.level.value = trial
             with self.options.pushed():
                 self._snes.solve(None, x)
@@ -337,6 +281,7 @@ class GrowthShell:
             iterations += self._snes.getIterationNumber()
             if reason > 0:
                 self._at(x)
+                before = (level, saved)
                 level, steps = trial, steps + 1
                 step = min(2.0 * step, initial_step)
                 continue
@@ -352,15 +297,16 @@ class GrowthShell:
     # ---- results ---------------------------------------------------------------------------
 
     def mid_surface(self) -> tuple[np.ndarray, np.ndarray]:
-        """The owned Lagrange nodes' reference points (n, 2) and their deformed places phi
-        (n, 3) (the displacement's bubbles vanish at the nodes)."""
+        """The owned Lagrange nodes' reference points (n, gdim) and their deformed places
+        phi (n, 3) (the displacement's bubbles vanish at the nodes)."""
         nodes = compat.vector_space(self.mesh, self.degree, 3)
         u = dolfinx.fem.Function(nodes)
         u.interpolate(self.displacement())
         owned = nodes.dofmap.index_map.size_local
-        X = nodes.tabulate_dof_coordinates()[:owned, :2]
+        gdim = self.mesh.geometry.dim
+        X = nodes.tabulate_dof_coordinates()[:owned, :gdim]
         phi = u.x.array.reshape(-1, 3)[:owned].copy()
-        phi[:, :2] += X
+        phi[:, :gdim] += X
         return X, phi
 
     def displacement(self) -> dolfinx.fem.Function:

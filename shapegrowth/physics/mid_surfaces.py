@@ -1,0 +1,48 @@
+"""Mid-surfaces of the built-in thin bodies, as a growth shell's reference: meshes of
+second-order triangles whose nodes lie on the surface, with the frame on them."""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from mpi4py import MPI
+
+from .. import compat
+from .shell_forms import Reference
+
+# a P2 triangle's nodes in DOLFINx's order, each as the pair of corners it is the midpoint of
+_P2_TRIANGLE = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
+
+
+def tube_surface(comm: MPI.Comm, radius: float, length: float, around: int,
+                 along: int) -> Reference:
+    """The cylinder of ``radius`` about the X3 axis from X3 = 0 to ``length``: ``around`` x
+    ``along`` squares of the (angle, X3) grid, each cut in two, closed round the axis; the
+    normal n = (X1, X2, 0) / r outwards, the frame t1 = E3 along the axis, t2 = n x E3."""
+    if around < 3 or along < 1:
+        raise ValueError("a tube's mesh has at least 3 cells round it and 1 along it")
+    corners = 2 * around  # grid nodes round the axis (corners and mid-edges)
+    if comm.rank == 0:
+        i, k = np.meshgrid(np.arange(corners), np.arange(2 * along + 1), indexing="ij")
+        angle = np.pi * i.ravel() / around
+        x = np.column_stack([radius * np.cos(angle), radius * np.sin(angle),
+                             length * k.ravel() / (2 * along)])
+        cells = []
+        for a in range(around):
+            for b in range(along):
+                ll, lr = (2 * a, 2 * b), (2 * a + 2, 2 * b)
+                ul, ur = (2 * a, 2 * b + 2), (2 * a + 2, 2 * b + 2)
+                for triangle in ((ll, lr, ur), (ll, ur, ul)):
+                    nodes = []
+                    for p, q in _P2_TRIANGLE:
+                        gi = (triangle[p][0] + triangle[q][0]) // 2 % corners
+                        gk = (triangle[p][1] + triangle[q][1]) // 2
+                        nodes.append(gi * (2 * along + 1) + gk)
+                    cells.append(nodes)
+        topology = np.asarray(cells, dtype=np.int64)
+    else:
+        x, topology = np.zeros((0, 3)), np.zeros((0, 6), dtype=np.int64)
+    mesh = compat.create_mesh(comm, topology, x, "triangle", degree=2)
+    X = ufl.SpatialCoordinate(mesh)
+    r = ufl.sqrt(X[0] ** 2 + X[1] ** 2)
+    return Reference.surface(mesh, ufl.as_vector([X[0] / r, X[1] / r, 0.0]), (0.0, 0.0, 1.0))
