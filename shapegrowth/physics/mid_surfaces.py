@@ -14,6 +14,28 @@ from .shell_forms import Reference
 _P2_TRIANGLE = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
 
 
+def _closed_grid(around: int, along: int) -> np.ndarray:
+    """P2 triangles on a grid of 2 around x (2 along + 1) nodes (node (i, k) numbered
+    i (2 along + 1) + k), closed round i: each of the around x along squares cut in two."""
+    corners = 2 * around
+    cells = []
+    for a in range(around):
+        for b in range(along):
+            ll, lr = (2 * a, 2 * b), (2 * a + 2, 2 * b)
+            ul, ur = (2 * a, 2 * b + 2), (2 * a + 2, 2 * b + 2)
+            for triangle in ((ll, lr, ur), (ll, ur, ul)):
+                cells.append([(triangle[p][0] + triangle[q][0]) // 2 % corners
+                              * (2 * along + 1) + (triangle[p][1] + triangle[q][1]) // 2
+                              for p, q in _P2_TRIANGLE])
+    return np.asarray(cells, dtype=np.int64)
+
+
+def _grid_angles(around: int, along: int) -> tuple[np.ndarray, np.ndarray]:
+    """The angle round and the share along (0 to 1) of each node of :func:`_closed_grid`."""
+    i, k = np.meshgrid(np.arange(2 * around), np.arange(2 * along + 1), indexing="ij")
+    return np.pi * i.ravel() / around, k.ravel() / (2 * along)
+
+
 def tube_surface(comm: MPI.Comm, radius: float, length: float, around: int,
                  along: int) -> Reference:
     """The cylinder of ``radius`` about the X3 axis from X3 = 0 to ``length``: ``around`` x
@@ -21,28 +43,30 @@ def tube_surface(comm: MPI.Comm, radius: float, length: float, around: int,
     normal n = (X1, X2, 0) / r outwards, the frame t1 = E3 along the axis, t2 = n x E3."""
     if around < 3 or along < 1:
         raise ValueError("a tube's mesh has at least 3 cells round it and 1 along it")
-    corners = 2 * around  # grid nodes round the axis (corners and mid-edges)
     if comm.rank == 0:
-        i, k = np.meshgrid(np.arange(corners), np.arange(2 * along + 1), indexing="ij")
-        angle = np.pi * i.ravel() / around
-        x = np.column_stack([radius * np.cos(angle), radius * np.sin(angle),
-                             length * k.ravel() / (2 * along)])
-        cells = []
-        for a in range(around):
-            for b in range(along):
-                ll, lr = (2 * a, 2 * b), (2 * a + 2, 2 * b)
-                ul, ur = (2 * a, 2 * b + 2), (2 * a + 2, 2 * b + 2)
-                for triangle in ((ll, lr, ur), (ll, ur, ul)):
-                    nodes = []
-                    for p, q in _P2_TRIANGLE:
-                        gi = (triangle[p][0] + triangle[q][0]) // 2 % corners
-                        gk = (triangle[p][1] + triangle[q][1]) // 2
-                        nodes.append(gi * (2 * along + 1) + gk)
-                    cells.append(nodes)
-        topology = np.asarray(cells, dtype=np.int64)
+        angle, share = _grid_angles(around, along)
+        x = np.column_stack([radius * np.cos(angle), radius * np.sin(angle), length * share])
+        topology = _closed_grid(around, along)
     else:
         x, topology = np.zeros((0, 3)), np.zeros((0, 6), dtype=np.int64)
     mesh = compat.create_mesh(comm, topology, x, "triangle", degree=2)
     X = ufl.SpatialCoordinate(mesh)
     r = ufl.sqrt(X[0] ** 2 + X[1] ** 2)
     return Reference.surface(mesh, ufl.as_vector([X[0] / r, X[1] / r, 0.0]), (0.0, 0.0, 1.0))
+
+
+def annulus_surface(comm: MPI.Comm, inner: float, outer: float, around: int,
+                    across: int) -> Reference:
+    """The annulus inner <= r <= outer of the (X1, X2) plane: ``around`` x ``across`` cells
+    of the (angle, r) grid, each cut in two, its circles' nodes on the circles."""
+    if around < 3 or across < 1 or not 0.0 < inner < outer:
+        raise ValueError("an annulus's mesh has 0 < inner < outer, at least 3 cells round "
+                         "it and 1 across")
+    if comm.rank == 0:
+        angle, share = _grid_angles(around, across)
+        r = inner + (outer - inner) * share
+        x = np.column_stack([r * np.cos(angle), r * np.sin(angle)])
+        topology = _closed_grid(around, across)
+    else:
+        x, topology = np.zeros((0, 2)), np.zeros((0, 6), dtype=np.int64)
+    return Reference.plane(compat.create_mesh(comm, topology, x, "triangle", degree=2))
