@@ -1,13 +1,14 @@
 """A growth shell's growth carried onto the 3D wall it stands for, grown there from rest,
 and the 3D wall's departure from the shell.
 
-The shell (physics/shell.py) of a plate grows by the stretches lam_i(zeta) = m_i + zeta
-s_i along E1 and E2 (its design: m_1, m_2, s_1, s_2 over the plane).  The 3D box of the
-same plane and thickness, its mid-plane at zeta = 0, takes at each growth node X the
-eigenvalues (m_i + zeta s_i)^2 of C_g in the Cartesian frame, zeta = X3 - the mid-plane's
-height, and 1 across the wall: the growth linear through the wall that the shell's rest
-forms abar = C_m, bbar = -C_1 / 2 are the expansion of.  The 3D state is then solved from
-rest by continuation, as every lift.
+The shell (physics/shell.py) grows by the stretches lam_i(zeta) = m_i + zeta s_i along its
+frame's tangents (its design: m_1, m_2, s_1, s_2 over the mid-surface).  The 3D wall of the
+same mid-surface and thickness takes at each growth node X the eigenvalues
+(m_i + zeta s_i)^2 of C_g, the shell's fields read at the mid-surface's point nearest X,
+zeta the height of X above it, and 1 across the wall: the growth linear through the wall
+whose expansion the shell's rest forms are.  A plate's lifts onto the 3D box (its
+Cartesian frame: E1, E2, E3), a tube's about X1 onto the 3D tube (its tube frame: along,
+round, across).  The 3D state is then solved from rest by continuation, as every lift.
 
 The departure is the largest distance, over the 3D body's nodes, between the node's place
 and the place the shell gives it, phi(X1, X2) + zeta d(X1, X2) (the director carries the
@@ -28,6 +29,7 @@ from ..physics.boundary import body_box
 from ..physics.model import ForwardModel
 from ..physics.paths import solve_watched
 from ..physics.shell import GrowthShell, sub_function
+from ..physics.surface_points import surface_values
 from ..physics.transfer import interpolate_between_meshes
 
 log = logging.getLogger(__name__)
@@ -54,15 +56,39 @@ def _on_solid(source: dolfinx.fem.Function, space) -> np.ndarray:
     return target.x.array
 
 
+def _tube_radius(mesh) -> float:
+    """The radius of a tube shell's mid-surface about X1 (its nodes'), refused where the
+    mesh is not such a cylinder."""
+    x = mesh.geometry.x
+    r = np.hypot(x[:, 1], x[:, 2])
+    comm = mesh.comm
+    hi = comm.allreduce(float(r.max(initial=0.0)), op=MPI.MAX)
+    lo = comm.allreduce(float(r.min(initial=np.inf)), op=MPI.MIN)
+    if hi - lo > 1e-9 * hi:
+        raise ValueError("a curved shell lifts onto the 3D tube: its mid-surface a cylinder "
+                         "about X1 (mid_surfaces.tube_surface with axis 0)")
+    return hi
+
+
 def lift_shell_growth(stretches: dolfinx.fem.Function, solid: ForwardModel) -> None:
-    """Set the 3D box's growth to the shell's ``stretches`` (m_1, m_2, s_1, s_2) linear
-    through the wall (collective)."""
+    """Set the 3D wall's growth to the shell's ``stretches`` (m_1, m_2, s_1, s_2) linear
+    through the wall (collective): a plate's onto the box of the Cartesian frame, a tube's
+    onto the tube of the tube frame."""
     growth = solid.growth
-    if growth.frame != "cartesian" or len(growth.eigenvalues) != 3 or growth.angles:
-        raise ValueError("a shell's growth lifts onto a 3D body of the Cartesian frame")
-    mid = _mid_plane(solid)
-    parts = [_on_solid(sub_function(stretches, i), growth.space) for i in range(4)]
-    zeta = growth.space.tabulate_dof_coordinates()[:, 2] - mid
+    curved = stretches.function_space.mesh.geometry.dim == 3
+    frame = "tube" if curved else "cartesian"
+    if growth.frame != frame or len(growth.eigenvalues) != 3 or growth.angles:
+        raise ValueError("a shell's growth lifts onto a 3D body of the "
+                         + ("tube frame" if curved else "Cartesian frame"))
+    points = growth.space.tabulate_dof_coordinates()
+    if curved:
+        radius = _tube_radius(stretches.function_space.mesh)
+        zeta = np.hypot(points[:, 1], points[:, 2]) - radius
+        values = surface_values(stretches, points)[0]
+        parts = [values[:, i] for i in range(4)]
+    else:
+        zeta = points[:, 2] - _mid_plane(solid)
+        parts = [_on_solid(sub_function(stretches, i), growth.space) for i in range(4)]
     for i in range(2):
         growth.eigenvalues[i].x.array[:] = (parts[i] + zeta * parts[i + 2]) ** 2
     growth.eigenvalues[2].x.array[:] = 1.0
@@ -73,24 +99,47 @@ def _mid_plane(solid: ForwardModel) -> float:
     return 0.5 * float(lo[2] + hi[2])
 
 
+def _director(theta: np.ndarray, t1: np.ndarray, t2: np.ndarray,
+              normal: np.ndarray) -> np.ndarray:
+    """The shell's director from its angles (n, 2) and the frame at the same points."""
+    th1, th2 = theta[:, :1], theta[:, 1:2]
+    return (np.sin(th2) * np.cos(th1)) * t1 - np.sin(th1) * t2 \
+        + (np.cos(th2) * np.cos(th1)) * normal
+
+
 def departure(shell: GrowthShell, solid: ForwardModel) -> float:
     """The largest distance of a 3D node from phi + zeta d of the shell, over the body's
     size (collective)."""
     u3 = solid.state.u
     space = u3.function_space
     mesh = space.mesh
-    u, theta = shell.displacement(), shell.angles()
-    shell_u = _on_solid(u, space).reshape(-1, 3)
-    angles = _on_solid(theta, compat.vector_space(mesh, compat.space_degree(space), 2)
-                       ).reshape(-1, 2)
-    t1, t2 = angles[:, 0], angles[:, 1]
-    director = np.column_stack([np.sin(t2) * np.cos(t1), -np.sin(t1),
-                                np.cos(t2) * np.cos(t1)])
     X = space.tabulate_dof_coordinates()
-    zeta = X[:, 2] - _mid_plane(solid)
-    plane = X.copy()
-    plane[:, 2] = 0.0
-    expected = plane + shell_u + zeta[:, None] * director
+    n = len(X)
+    if shell.reference.curved:
+        radius = _tube_radius(shell.mesh)
+        r = np.hypot(X[:, 1], X[:, 2])
+        across = np.zeros((n, 3))
+        across[:, 1], across[:, 2] = X[:, 1] / r, X[:, 2] / r
+        zeta = r - radius
+        middle = X - zeta[:, None] * across  # the mid-surface's point below each node
+        nodes = compat.vector_space(shell.mesh, shell.degree, 3)
+        shell_u = dolfinx.fem.Function(nodes)
+        shell_u.interpolate(shell.displacement())
+        moved = surface_values(shell_u, middle)[0]
+        angles = surface_values(shell.angles(), middle)[0]
+        along = np.tile([1.0, 0.0, 0.0], (n, 1))
+        director = _director(angles, along, np.cross(across, along), across)
+    else:
+        zeta = X[:, 2] - _mid_plane(solid)
+        middle = X.copy()
+        middle[:, 2] = 0.0
+        moved = _on_solid(shell.displacement(), space).reshape(-1, 3)
+        angles = _on_solid(shell.angles(), compat.vector_space(
+            mesh, compat.space_degree(space), 2)).reshape(-1, 2)
+        e = np.eye(3)
+        director = _director(angles, np.tile(e[0], (n, 1)), np.tile(e[1], (n, 1)),
+                             np.tile(e[2], (n, 1)))
+    expected = middle + moved + zeta[:, None] * director
     placed = X + u3.x.array.reshape(-1, 3)
     owned = space.dofmap.index_map.size_local
     local = float(np.linalg.norm((placed - expected)[:owned], axis=1).max(initial=0.0))

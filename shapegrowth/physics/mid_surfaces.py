@@ -37,22 +37,32 @@ def _grid_angles(around: int, along: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def tube_surface(comm: MPI.Comm, radius: float, length: float, around: int,
-                 along: int) -> Reference:
-    """The cylinder of ``radius`` about the X3 axis from X3 = 0 to ``length``: ``around`` x
-    ``along`` squares of the (angle, X3) grid, each cut in two, closed round the axis; the
-    normal n = (X1, X2, 0) / r outwards, the frame t1 = E3 along the axis, t2 = n x E3."""
+                 along: int, axis: int = 2) -> Reference:
+    """The cylinder of ``radius`` about the X3 axis (``axis`` 2) or the X1 axis (0, the
+    built-in tube's) from 0 to ``length`` along it: ``around`` x ``along`` squares of the
+    (angle, along) grid, each cut in two, closed round the axis; the normal n outwards, the
+    frame t1 along the axis, t2 = n x t1 round it."""
     if around < 3 or along < 1:
         raise ValueError("a tube's mesh has at least 3 cells round it and 1 along it")
+    if axis not in (0, 2):
+        raise ValueError("a tube's axis is X1 (0) or X3 (2)")
+    # the coordinates (across, across, along) in the mesh's order
+    order = [0, 1, 2] if axis == 2 else [2, 0, 1]
     if comm.rank == 0:
         angle, share = _grid_angles(around, along)
-        x = np.column_stack([radius * np.cos(angle), radius * np.sin(angle), length * share])
+        x = np.column_stack([radius * np.cos(angle), radius * np.sin(angle),
+                             length * share])[:, order]
         topology = _closed_grid(around, along)
     else:
         x, topology = np.zeros((0, 3)), np.zeros((0, 6), dtype=np.int64)
     mesh = compat.create_mesh(comm, topology, x, "triangle", degree=2)
     X = ufl.SpatialCoordinate(mesh)
-    r = ufl.sqrt(X[0] ** 2 + X[1] ** 2)
-    return Reference.surface(mesh, ufl.as_vector([X[0] / r, X[1] / r, 0.0]), (0.0, 0.0, 1.0))
+    a, b = [i for i in range(3) if i != axis]
+    r = ufl.sqrt(X[a] ** 2 + X[b] ** 2)
+    normal = [0.0, 0.0, 0.0]
+    normal[a], normal[b] = X[a] / r, X[b] / r
+    along_axis = (float(axis == 0), 0.0, float(axis == 2))
+    return Reference.surface(mesh, ufl.as_vector(normal), along_axis)
 
 
 def annulus_surface(comm: MPI.Comm, inner: float, outer: float, around: int,
