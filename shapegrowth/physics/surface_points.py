@@ -70,8 +70,9 @@ def locate(mesh, points: np.ndarray) -> SurfacePoints:
         jac = np.stack([np.einsum("pn,pnk->pk", table[1 + j], cell_x) for j in range(2)],
                        axis=-1)  # (pairs, 3, 2)
         gap = np.repeat(points, near.shape[1], axis=0) - where
+        # b as a stack of columns: numpy 2 takes a 2D b as a stack of matrices
         step = np.linalg.solve(np.einsum("pki,pkj->pij", jac, jac),
-                               np.einsum("pki,pk->pi", jac, gap))
+                               np.einsum("pki,pk->pi", jac, gap)[..., None])[..., 0]
         X = _clamped(X + step.reshape(X.shape))
     table = element.tabulate(0, X.reshape(-1, 2))[0, :, :, 0]
     where = np.einsum("pn,pnk->pk", table, x[near.ravel()]).reshape(near.shape + (3,))
