@@ -265,23 +265,6 @@ def geometry_nodes(mesh) -> np.ndarray:
     return dofmap.array.reshape(-1, dofmap.offsets[1] - dofmap.offsets[0])
 
 
-def cell_diameter(mesh) -> dolfinx.fem.Function:
-    """Each cell's diameter (its longest edge between corners) as a DG0 Function: UFL's
-    CellDiameter is not generated for curved (second-order) cells."""
-    space = scalar_space(mesh, 0, "DG")
-    tdim = mesh.topology.dim
-    nodes = geometry_nodes(mesh)[:, :tdim + 1]  # each cell's corners come first
-    x = mesh.geometry.x[nodes]
-    longest = np.zeros(len(nodes))
-    for i in range(tdim + 1):
-        for j in range(i + 1, tdim + 1):
-            longest = np.maximum(longest, np.linalg.norm(x[:, i] - x[:, j], axis=1))
-    h = dolfinx.fem.Function(space)
-    dofs = np.array([space.dofmap.cell_dofs(c)[0] for c in range(len(nodes))], dtype=np.int64)
-    h.x.array[dofs] = longest
-    return h
-
-
 def petsc_vec(f: dolfinx.fem.Function):
     """The PETSc vector that shares ``f``'s values (ghosts included)."""
     if AT_LEAST_0_9:  # 0.8 removed Function.vector for Function.x.petsc_vec

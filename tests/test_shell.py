@@ -189,15 +189,13 @@ def _lifted_roll(cells: int, size: float, folder) -> ShellLift:
 
 @pytest.mark.mpi
 @pytest.mark.simplex
-def test_the_shell_s_growth_lifted_onto_the_3d_wall_grows_the_same_roll(tmp_path_factory):
+def test_the_shell_s_growth_lifted_onto_the_3d_wall_grows_the_same_roll(shared_tmp):
     """The shell's growth carried onto the 3D box linear through the wall, grown from rest
     there: the 3D wall leaves the shell's phi + zeta d by their discretisation errors only
     (measured: 8.44e-3 and 5.58e-4 of the size at 3D mesh sizes 0.05 and 0.025 with 16 and
     32 shell cells; the same on 2 ranks)."""
-    folder = tmp_path_factory.mktemp("lift") if MPI.COMM_WORLD.rank == 0 else None
-    folder = MPI.COMM_WORLD.bcast(folder)
-    coarse = _lifted_roll(16, 0.05, folder)
-    fine = _lifted_roll(32, 0.025, folder)
+    coarse = _lifted_roll(16, 0.05, shared_tmp)
+    fine = _lifted_roll(32, 0.025, shared_tmp)
     assert coarse.converged and fine.converged
     assert coarse.departure == pytest.approx(8.4420e-3, rel=1e-3)
     assert fine.departure < coarse.departure / 8.0

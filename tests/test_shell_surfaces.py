@@ -235,7 +235,7 @@ def test_a_field_of_a_curved_surface_is_read_at_the_points_nearest_given_ones():
         for degree in (1, 2):
             f = dolfinx.fem.Function(compat.vector_space(mesh, degree, 3))
             f.interpolate(lambda x: np.vstack([x[0] * x[2], np.sin(x[1]), x[2] ** 2]))
-            values, distance = surface_values(f, points * np.array([1.01, 1.01, 1.0]))
+            (values,), distance = surface_values([f], points * np.array([1.01, 1.01, 1.0]))
             errors[degree].append(float(np.abs(values - exact).max()))
             assert np.allclose(distance, 0.01 * RADIUS, rtol=0.1), distance
     assert math.log2(errors[1][0] / errors[1][1]) > 1.9, errors
@@ -281,17 +281,14 @@ def _lifted_bend(cells: int, size: float, folder) -> ShellLift:
 @pytest.mark.mpi
 @pytest.mark.slow  # 20 s and 70 s serially: the 3D tube grown from rest twice
 @pytest.mark.simplex
-def test_the_bent_tube_s_growth_lifted_onto_the_3d_tube_grows_the_same_torus(
-        tmp_path_factory):
+def test_the_bent_tube_s_growth_lifted_onto_the_3d_tube_grows_the_same_torus(shared_tmp):
     """The tube shell's growth carried onto the built-in 3D tube (its tube frame: along,
     round, across), linear through the wall, grown there from rest: the 3D wall leaves the
     shell's phi + zeta d by the two discretisations' errors (measured: 2.946e-3 and 1.007e-3
     of the size with 8 and 16 shell cells round and along, 3D mesh sizes 0.1 and 0.05; the
     same on 2 ranks)."""
-    folder = tmp_path_factory.mktemp("tube") if MPI.COMM_WORLD.rank == 0 else None
-    folder = MPI.COMM_WORLD.bcast(folder)
-    coarse = _lifted_bend(8, 0.1, folder)
-    fine = _lifted_bend(16, 0.05, folder)
+    coarse = _lifted_bend(8, 0.1, shared_tmp)
+    fine = _lifted_bend(16, 0.05, shared_tmp)
     assert coarse.converged and fine.converged
     assert coarse.departure == pytest.approx(2.9455e-3, rel=2e-3)
     assert fine.departure < coarse.departure / 2.5

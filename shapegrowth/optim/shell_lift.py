@@ -84,7 +84,7 @@ def lift_shell_growth(stretches: dolfinx.fem.Function, solid: ForwardModel) -> N
     if curved:
         radius = _tube_radius(stretches.function_space.mesh)
         zeta = np.hypot(points[:, 1], points[:, 2]) - radius
-        values = surface_values(stretches, points)[0]
+        values = surface_values([stretches], points)[0][0]
         parts = [values[:, i] for i in range(4)]
     else:
         zeta = points[:, 2] - _mid_plane(solid)
@@ -122,11 +122,8 @@ def departure(shell: GrowthShell, solid: ForwardModel) -> float:
         across[:, 1], across[:, 2] = X[:, 1] / r, X[:, 2] / r
         zeta = r - radius
         middle = X - zeta[:, None] * across  # the mid-surface's point below each node
-        nodes = compat.vector_space(shell.mesh, shell.degree, 3)
-        shell_u = dolfinx.fem.Function(nodes)
-        shell_u.interpolate(shell.displacement())
-        moved = surface_values(shell_u, middle)[0]
-        angles = surface_values(shell.angles(), middle)[0]
+        (moved, angles), _ = surface_values(
+            [shell.nodal_displacement(), shell.angles()], middle)
         along = np.tile([1.0, 0.0, 0.0], (n, 1))
         director = _director(angles, along, np.cross(across, along), across)
     else:

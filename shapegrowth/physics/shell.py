@@ -145,7 +145,7 @@ class GrowthShell:
         membrane = 0.5 * t * quadratic(eps) * area
         bending = t**3 / 24.0 * quadratic(kappa) * area
         shear = 0.5 * t * SHEAR_FACTOR * mu * ufl.dot(gamma, inv * gamma) * area
-        share = t**2 / compat.cell_diameter(mesh) ** 2
+        share = t**2 / reference.cell_diameter() ** 2
         full = _measure(mesh, FULL_DEGREE)
         self.energy = (bending + share * (membrane + shear)) * full \
             + (1.0 - share) * membrane * _measure(mesh, MEMBRANE_DEGREE) \
@@ -298,16 +298,21 @@ class GrowthShell:
 
     def mid_surface(self) -> tuple[np.ndarray, np.ndarray]:
         """The owned Lagrange nodes' reference points (n, gdim) and their deformed places
-        phi (n, 3) (the displacement's bubbles vanish at the nodes)."""
-        nodes = compat.vector_space(self.mesh, self.degree, 3)
-        u = dolfinx.fem.Function(nodes)
-        u.interpolate(self.displacement())
-        owned = nodes.dofmap.index_map.size_local
+        phi (n, 3)."""
+        u = self.nodal_displacement()
+        owned = u.function_space.dofmap.index_map.size_local
         gdim = self.mesh.geometry.dim
-        X = nodes.tabulate_dof_coordinates()[:owned, :gdim]
+        X = u.function_space.tabulate_dof_coordinates()[:owned, :gdim]
         phi = u.x.array.reshape(-1, 3)[:owned].copy()
         phi[:, :gdim] += X
         return X, phi
+
+    def nodal_displacement(self) -> dolfinx.fem.Function:
+        """u at the Lagrange nodes of the shell's degree, a Function of that vector space
+        (the displacement's bubbles vanish at the nodes)."""
+        u = dolfinx.fem.Function(compat.vector_space(self.mesh, self.degree, 3))
+        u.interpolate(self.displacement())
+        return u
 
     def displacement(self) -> dolfinx.fem.Function:
         """u as a Function of its own space."""

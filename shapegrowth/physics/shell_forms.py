@@ -24,8 +24,11 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import dolfinx.fem
+import numpy as np
 import ufl
 
+from .. import compat
 from .material import Energy, MooneyRivlin
 
 
@@ -97,13 +100,33 @@ class Reference:
         X = ufl.SpatialCoordinate(self.mesh)
         return X if self.curved else ufl.as_vector([X[0], X[1], 0.0])
 
+    @property
+    def frame(self) -> ufl.core.expr.Expr:
+        """E = [t1 t2], the tangents as columns (3 x 2)."""
+        t1, t2 = self.tangents
+        return ufl.as_matrix([[t1[i], t2[i]] for i in range(3)])
+
     def derivative(self, f: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
         """The derivative of a 3-vector field along the frame's tangents (3 x 2)."""
-        if not self.curved:
-            return ufl.grad(f)
-        t1, t2 = self.tangents
-        frame = ufl.as_matrix([[t1[i], t2[i]] for i in range(3)])
-        return ufl.grad(f) * frame
+        return ufl.grad(f) * self.frame if self.curved else ufl.grad(f)
+
+    def cell_diameter(self) -> dolfinx.fem.Function:
+        """Each cell's diameter (its longest edge between corners) as a DG0 Function: UFL's
+        CellDiameter is not generated for curved (second-order) cells."""
+        mesh = self.mesh
+        space = compat.scalar_space(mesh, 0, "DG")
+        tdim = mesh.topology.dim
+        nodes = compat.geometry_nodes(mesh)[:, :tdim + 1]  # each cell's corners come first
+        x = mesh.geometry.x[nodes]
+        longest = np.zeros(len(nodes))
+        for i in range(tdim + 1):
+            for j in range(i + 1, tdim + 1):
+                longest = np.maximum(longest, np.linalg.norm(x[:, i] - x[:, j], axis=1))
+        h = dolfinx.fem.Function(space)
+        dofs = np.array([space.dofmap.cell_dofs(c)[0] for c in range(len(nodes))],
+                        dtype=np.int64)
+        h.x.array[dofs] = longest
+        return h
 
     @property
     def curvature(self) -> ufl.core.expr.Expr:
@@ -111,9 +134,7 @@ class Reference:
         plane)."""
         if not self.curved:
             return ufl.as_matrix([[0.0, 0.0], [0.0, 0.0]])
-        t1, t2 = self.tangents
-        frame = ufl.as_matrix([[t1[i], t2[i]] for i in range(3)])
-        return -ufl.sym(frame.T * self.derivative(self.normal))
+        return -ufl.sym(self.frame.T * self.derivative(self.normal))
 
     def director(self, theta: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
         """d = sin th2 cos th1 t1 - sin th1 t2 + cos th2 cos th1 n: the normal turned by the

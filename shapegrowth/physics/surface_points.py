@@ -12,6 +12,7 @@ field's Lagrange basis is tabulated there.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import basix
@@ -83,31 +84,34 @@ def locate(mesh, points: np.ndarray) -> SurfacePoints:
                          distance[rows, best])
 
 
-def surface_values(f: dolfinx.fem.Function, points: np.ndarray) -> tuple[np.ndarray,
-                                                                          np.ndarray]:
-    """The values of ``f`` (Lagrange of degree 1 or 2, scalar or blocked, on a surface
-    mesh in space) at the surface's points nearest this rank's ``points`` (n, 3), and their
-    distances from them (collective: each rank asks for its own points)."""
-    space = f.function_space
-    mesh = space.mesh
+def surface_values(fields: Sequence[dolfinx.fem.Function], points: np.ndarray
+                   ) -> tuple[list[np.ndarray], np.ndarray]:
+    """The values of each of ``fields`` (Lagrange of degree 1 or 2, scalar or blocked, on
+    one surface mesh in space) at the surface's points nearest this rank's ``points``
+    (n, 3), the points found once for all of them, and their distances from them
+    (collective: each rank asks for its own points)."""
+    mesh = fields[0].function_space.mesh
     comm = mesh.comm
     points = np.asarray(points, dtype=float).reshape(-1, 3)
     asked = comm.allgather(points)
     offset = sum(len(p) for p in asked[:comm.rank])
     found = locate(mesh, np.concatenate(asked))
-    bs = space.dofmap.index_map_bs
-    element = _triangle(compat.space_degree(space))
-    values = np.full((len(found.cells), bs), np.nan)
     here = np.isfinite(found.distance)
-    if here.any():
-        table = element.tabulate(0, found.reference[here])[0, :, :, 0]  # (points, dofs)
-        dofs = np.array([space.dofmap.cell_dofs(c) for c in found.cells[here]])
-        local = f.x.array.reshape(-1, bs)[dofs]  # (points, dofs, bs)
-        values[here] = np.einsum("pn,pnb->pb", table, local)
     mine = slice(offset, offset + len(points))
     # every rank's answer for this rank's points: the nearest cell of all wins
     distances = np.array(comm.allgather(found.distance))[:, mine]  # (ranks, n)
-    everyone = np.array(comm.allgather(values))[:, mine]  # (ranks, n, bs)
     winner = distances.argmin(axis=0)
-    chosen = everyone[winner, np.arange(len(points))].reshape(-1, bs)
+    chosen = []
+    for f in fields:
+        space = f.function_space
+        bs = space.dofmap.index_map_bs
+        values = np.full((len(found.cells), bs), np.nan)
+        if here.any():
+            table = _triangle(compat.space_degree(space)).tabulate(
+                0, found.reference[here])[0, :, :, 0]  # (points, dofs)
+            dofs = np.array([space.dofmap.cell_dofs(c) for c in found.cells[here]])
+            local = f.x.array.reshape(-1, bs)[dofs]  # (points, dofs, bs)
+            values[here] = np.einsum("pn,pnb->pb", table, local)
+        everyone = np.array(comm.allgather(values))[:, mine]  # (ranks, n, bs)
+        chosen.append(everyone[winner, np.arange(len(points))].reshape(-1, bs))
     return chosen, distances.min(axis=0)
