@@ -165,6 +165,24 @@ def shell_taylor_rates(shell, objective, design, step) -> tuple[list[float], lis
     return remainders, [math.log2(a / b) for a, b in zip(remainders, remainders[1:])]
 
 
+def lifted_shell(shell, stretches, config: str, size: float, folder: Path):
+    """A growth shell's growth (``stretches``) lifted onto the 3D body of the YAML text
+    ``config`` at mesh size ``size`` (written on rank 0 into ``folder``) and grown there from
+    rest: optim.shell_lift's ShellLift (collective)."""
+    from shapegrowth.config import load
+    from shapegrowth.optim.shell_lift import lift_shell
+    from shapegrowth.physics.model import ForwardModel
+
+    comm = shell.mesh.comm
+    path = folder / "solid.yaml"
+    if comm.rank == 0:
+        path.write_text(config)
+    comm.barrier()
+    solid = ForwardModel.build(load(path, [f"mesh.size={size}",
+                                            f"output.dir={folder / 'out'}"]), comm)
+    return lift_shell(shell, stretches, solid)
+
+
 def run_cli(*args: str) -> int:
     """Run the CLI in this process (collectively under MPI); returns the exit status."""
     from shapegrowth.commands.cli import main

@@ -8,12 +8,12 @@ import dolfinx
 import numpy as np
 import pytest
 import ufl
-from conftest import shell_taylor_rates
+from conftest import lifted_shell, shell_taylor_rates
 from mpi4py import MPI
 
 from shapegrowth import compat
 from shapegrowth.config import load
-from shapegrowth.optim.shell_lift import ShellLift, lift_shell, lift_shell_growth
+from shapegrowth.optim.shell_lift import ShellLift, lift_shell_growth
 from shapegrowth.physics.material import Isochoric, MooneyRivlin, Ogden
 from shapegrowth.physics.model import ForwardModel
 from shapegrowth.physics.shell import GrowthShell, Pin, RestForms, ShellMaterial
@@ -178,13 +178,7 @@ def _lifted_roll(cells: int, size: float, folder) -> ShellLift:
     shell = GrowthShell(mesh, WALL, ShellMaterial.of_energy(MooneyRivlin()), rest,
                         lambda x: np.isclose(x[0], 0.0), design=m)
     assert shell.solve().converged
-    path = folder / "box.yaml"
-    if comm.rank == 0:
-        path.write_text(_BOX)
-    comm.barrier()
-    solid = ForwardModel.build(load(path, [f"mesh.size={size}",
-                                            f"output.dir={folder / 'out'}"]), comm)
-    return lift_shell(shell, stretches, solid)
+    return lifted_shell(shell, stretches, _BOX, size, folder)
 
 
 @pytest.mark.mpi

@@ -10,12 +10,12 @@ import dolfinx.fem
 import numpy as np
 import pytest
 import ufl
-from conftest import shell_taylor_rates
+from conftest import lifted_shell, shell_taylor_rates
 from mpi4py import MPI
 
 from shapegrowth import compat
 from shapegrowth.config import load
-from shapegrowth.optim.shell_lift import ShellLift, lift_shell, lift_shell_growth
+from shapegrowth.optim.shell_lift import ShellLift, lift_shell_growth
 from shapegrowth.physics.material import MooneyRivlin
 from shapegrowth.physics.mid_surfaces import annulus_surface, tube_surface
 from shapegrowth.physics.model import ForwardModel
@@ -269,13 +269,7 @@ def _lifted_bend(cells: int, size: float, folder) -> ShellLift:
     shell = GrowthShell(reference.mesh, WALL, ShellMaterial.of_energy(MooneyRivlin()), rest,
                         lambda x: np.isclose(x[0], 0.0), design=m, reference=reference)
     assert shell.solve().converged
-    path = folder / "tube.yaml"
-    if comm.rank == 0:
-        path.write_text(_TUBE)
-    comm.barrier()
-    solid = ForwardModel.build(load(path, [f"mesh.size={size}",
-                                            f"output.dir={folder / 'out'}"]), comm)
-    return lift_shell(shell, stretches, solid)
+    return lifted_shell(shell, stretches, _TUBE, size, folder)
 
 
 @pytest.mark.mpi
