@@ -414,12 +414,36 @@ def evaluate_near(u: dolfinx.fem.Function, points: np.ndarray, inside: np.ndarra
 
 
 def write_xdmf(path: Path, mesh, functions: list[dolfinx.fem.Function]) -> None:
-    """One XDMF file (+ .h5) with the mesh and P1 functions, readable by ParaView."""
+    """One XDMF file (+ .h5) with the mesh and P1 functions, readable by ParaView.
+    RuntimeError on every rank, before anything is written, where dolfinx 0.5.2 could not
+    write the values of a curved mesh (see :func:`_point_values_fail`)."""
+    if functions and not AT_LEAST_0_9 and geometry_degree(mesh) > 1:
+        if mesh.comm.allreduce(_point_values_fail(functions[0]), MPI.LOR):
+            raise RuntimeError("Newton method failed to converge for non-affine geometry "
+                               "(the pull-back of a curved cell's nodes)")
     path.parent.mkdir(parents=True, exist_ok=True)
     with dolfinx.io.XDMFFile(mesh.comm, str(path), "w") as xdmf:
         xdmf.write_mesh(mesh)
         for f in functions:
             xdmf.write_function(f)
+
+
+def _point_values_fail(u: dolfinx.fem.Function) -> bool:
+    """Whether dolfinx 0.5.2's XDMF writer fails on this rank: it evaluates each function
+    at every geometry node in the last local cell holding it, pulling the node back by
+    Newton's method, which fails on a badly distorted curved cell.  It raises on the ranks
+    that hold one while the others enter the file's collective write (a hang), so the same
+    evaluation is tried here first and the ranks agree."""
+    mesh = u.function_space.mesh
+    nodes = geometry_nodes(mesh)
+    cells = np.full(len(mesh.geometry.x), -1, dtype=np.int32)
+    # the last cell wins, as in the writer's loop (numpy's assignment keeps the last value)
+    cells[nodes.ravel()] = np.repeat(np.arange(len(nodes), dtype=np.int32), nodes.shape[1])
+    try:
+        u.eval(mesh.geometry.x, cells)
+    except RuntimeError:
+        return True
+    return False
 
 
 def set_option(opts, key: str, value) -> None:

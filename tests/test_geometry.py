@@ -257,3 +257,28 @@ def test_a_mesh_that_fails_to_build_fails_on_every_rank(shared_tmp, monkeypatch)
     cfg = config("cube", {"side": 1.0}, 0.3, shared_tmp)
     with pytest.raises(RuntimeError, match="no mesh today"):
         geometry.ensure_mesh(cfg)
+
+
+@pytest.mark.mpi
+@pytest.mark.skipif(compat.AT_LEAST_0_9, reason="only dolfinx 0.5.2's XDMF writer pulls the "
+                    "geometry's nodes back into their cells")
+def test_a_curved_mesh_the_xdmf_writer_cannot_pull_back_is_refused_on_every_rank(shared_tmp):
+    """dolfinx 0.5.2's writer evaluates each field at every node of the geometry in a cell of
+    its own rank, and a rank whose cell cannot be pulled back raised alone while the others
+    entered the file's collective write (a hang: the sample hammer on two ranks).  Here only
+    rank 0 holds such a node (at NaN): every rank raises, before any file is made."""
+    from shapegrowth.physics.mid_surfaces import annulus_surface
+
+    mesh = annulus_surface(MPI.COMM_WORLD, 0.2, 1.0, 16, 4).mesh
+    f = dolfinx.fem.Function(compat.scalar_space(mesh, 2))
+    path = shared_tmp / "fields.xdmf"
+    compat.write_xdmf(path, mesh, [f])  # a sound curved mesh is written
+    assert path.is_file()
+    mesh.comm.barrier()
+    if mesh.comm.rank == 0:
+        path.unlink()
+        mesh.geometry.x[0, :] = np.nan
+    with pytest.raises(RuntimeError, match="non-affine geometry"):
+        compat.write_xdmf(path, mesh, [f])
+    mesh.comm.barrier()
+    assert not path.exists()
