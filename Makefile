@@ -115,14 +115,17 @@ test-serial-slow:
 # Tests marked `mpi` run again on $(NP) ranks; the other ranks' reports go to
 # .cache/rank-N.log and are shown only if the run fails.
 # A failure on one rank only can leave the others waiting in a collective: the
-# timeout turns such a hang into a failure.
+# timeout turns such a hang into a failure, and a test still running after 300 s (the
+# slowest takes 72) writes every rank's stack, which names the collective each waits in.
+MPI_PYTEST := $(PYTEST) --color=no -o faulthandler_timeout=300
+
 test-mpi:
-	@OPENBLAS_NUM_THREADS=1 timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(PYTEST) --color=no -m "mpi and not slow and not mpi_slow" tests \
-	  || { tail -n 40 .cache/rank-*.log; exit 1; }
+	@OPENBLAS_NUM_THREADS=1 timeout 1200 $(MPIRUN) scripts/rank0-output.sh $(MPI_PYTEST) -m "mpi and not slow and not mpi_slow" tests \
+	  || { tail -n 60 .cache/rank-*.log; exit 1; }
 
 test-mpi-slow:
-	@OPENBLAS_NUM_THREADS=1 timeout 1800 $(MPIRUN) scripts/rank0-output.sh $(PYTEST) --color=no -m "mpi and (slow or mpi_slow)" tests \
-	  || { tail -n 40 .cache/rank-*.log; exit 1; }
+	@OPENBLAS_NUM_THREADS=1 timeout 1800 $(MPIRUN) scripts/rank0-output.sh $(MPI_PYTEST) -m "mpi and (slow or mpi_slow)" tests \
+	  || { tail -n 60 .cache/rank-*.log; exit 1; }
 
 # The notebooks: executed from their jupytext sources (the .ipynb are rewritten with
 # their outputs), then each source run as a script under mpirun (notebooks-mpi, the pass CI
