@@ -182,6 +182,7 @@ def _lifted_roll(cells: int, size: float, folder) -> ShellLift:
 
 
 @pytest.mark.mpi
+@pytest.mark.mpi_slow  # two ranks in the slow tier (8 s), with the tube's lift
 @pytest.mark.simplex
 def test_the_shell_s_growth_lifted_onto_the_3d_wall_grows_the_same_roll(shared_tmp):
     """The shell's growth carried onto the 3D box linear through the wall, grown from rest
@@ -222,6 +223,8 @@ def _clamped_strip_under(strain: float) -> int:
 
 
 @pytest.mark.mpi
+# two ranks in the slow tier (9 s): the fast tier's two-rank shell checks are the tube's
+@pytest.mark.mpi_slow
 def test_a_strip_clamped_at_both_ends_buckles_at_euler_s_growth():
     """Growth along a strip held at both ends compresses it; its flat state loses stability
     where the compression reaches Euler's clamped-clamped load, a growth strain of

@@ -138,6 +138,7 @@ def test_the_p_multigrid_finds_the_lowest_eigenvalues_without_a_factorisation(sh
     assert watched["linear_solver"]["preset"] == "pmg"
 
 @pytest.mark.mpi
+@pytest.mark.mpi_slow  # two ranks in the slow tier (5 s)
 def test_the_p_multigrid_s_eigensolve_holds_with_a_gamg_coarse_level(shared_tmp, monkeypatch):
     """The beam two tetrahedra thick, slightly bent, its p-multigrid's coarse level by GAMG
     (as beyond 50 000 coarse DOFs): the lowest eigenvalues are the LDL^T's to 1e-6 (measured
