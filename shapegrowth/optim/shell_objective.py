@@ -1,0 +1,103 @@
+"""rho_H (2.9) of a growth shell's wall: the wall as a weighted point cloud, and the way back
+to the shell's design through its adjoint.
+
+The wall is sampled at the quadrature points X_q of the mid-surface's owned cells and at
+the Gauss-Legendre heights zeta_k through it: points phi(X_q) + zeta_k d(X_q), weights
+w_q c_k sqrt(det a(X_q)) (w_q the reference surface's quadrature weights, c_k = t/2 times
+the rule's weight, a = F^T F the deformed metric in the reference's orthonormal frame), so
+that a sum over the cloud is the deformed wall's volume to first order in its thickness
+(the wall's own thickness strain and the height's share of the area are left out, as the
+shell leaves them out).  A derivative of a function of the cloud with respect to its points
+(g_x) and weights (g_w) is the derivative in the shell's unknowns q of the form
+
+    S(q) = sum_k  integral of  G_x,k . (phi + zeta_k d) + G_w,k sqrt(det a),
+
+G_x,k = g_x / w_q and G_w,k = c_k g_w held fixed as quadrature functions; the shell's
+adjoint (:meth:`GrowthShell.gradient`) carries it to the design.
+"""
+
+from __future__ import annotations
+
+import dolfinx.fem
+import numpy as np
+import ufl
+from mpi4py import MPI
+
+from .. import compat
+from ..physics.shell import GrowthShell
+from ..shape.clouds import QuadratureCloud
+from ..shape.hausdorff import HausdorffResult, PointCloud, SmoothHausdorff
+
+
+class ShellCloud:
+    """The wall of ``shell`` at quadrature points of ``degree`` on its mid-surface and
+    ``layers`` Gauss-Legendre heights through it."""
+
+    def __init__(self, shell: GrowthShell, degree: int = 4, layers: int = 2):
+        self.shell = shell
+        self.base = QuadratureCloud(shell.mesh, degree)
+        nodes, weights = np.polynomial.legendre.leggauss(layers)
+        self.heights = 0.5 * shell.thickness * nodes
+        self.shares = 0.5 * shell.thickness * weights
+        reference = shell.reference
+        _, theta = ufl.split(shell.q)
+        director = reference.director(theta)
+        F = reference.derivative(shell.phi)
+        ratio = ufl.sqrt(ufl.det(F.T * F))
+        base = self.base
+        self._points = [compat.expression_evaluator(shell.phi + float(z) * director,
+                                                    base.ref_points, shell.mesh, base.cells)
+                        for z in self.heights]
+        self._ratio = compat.expression_evaluator(ratio, base.ref_points, shell.mesh,
+                                                  base.cells)
+        # the derivative's fixed factors, three components and a weight a height
+        self._gx = [[dolfinx.fem.Function(base.Q) for _ in range(3)] for _ in self.heights]
+        self._gw = [dolfinx.fem.Function(base.Q) for _ in self.heights]
+        terms = []
+        for z, gx, gw in zip(self.heights, self._gx, self._gw):
+            x = shell.phi + float(z) * director
+            terms.append((sum(g * x[c] for c, g in enumerate(gx)) + gw * ratio) * base.dx)
+        self.surrogate = sum(terms[1:], terms[0])
+
+    def __len__(self) -> int:
+        return len(self.base) * len(self.heights)
+
+    def deformed(self) -> PointCloud:
+        """The deformed wall's cloud (this rank's points, height after height)."""
+        ratio = self._ratio().reshape(-1)
+        points = np.concatenate([p().reshape(-1, 3) for p in self._points])
+        weights = np.concatenate([c * ratio * self.base.w for c in self.shares])
+        return PointCloud(points, weights)
+
+    def reference(self) -> PointCloud:
+        """The undeformed wall's cloud: the deformed one at q = 0."""
+        saved = self.shell.q.x.array.copy()
+        self.shell.q.x.array[:] = 0.0
+        try:
+            return self.deformed()
+        finally:
+            self.shell.q.x.array[:] = saved
+
+    def _fill(self, grad_points: np.ndarray, grad_weights: np.ndarray) -> None:
+        n, dofs, w = len(self.base), self.base.dofs, self.base.w
+        for k, (gx, gw, share) in enumerate(zip(self._gx, self._gw, self.shares)):
+            rows = slice(k * n, (k + 1) * n)
+            for c, g in enumerate(gx):
+                g.x.array[:] = 0.0
+                g.x.array[dofs] = grad_points[rows, c] / w
+                g.x.scatter_forward()
+            gw.x.array[:] = 0.0
+            gw.x.array[dofs] = share * grad_weights[rows]
+            gw.x.scatter_forward()
+
+    def hausdorff(self, target: PointCloud, rho: SmoothHausdorff,
+                  comm: MPI.Comm | None = None) -> tuple[HausdorffResult, dolfinx.fem.Function]:
+        """rho_H of the wall at the shell's current equilibrium against ``target`` (this
+        rank's share of it), and its gradient with respect to the shell's design
+        (collective)."""
+        comm = self.shell.mesh.comm if comm is None else comm
+        result = rho(self.deformed(), target, comm)
+        assert result.grad_points is not None and result.grad_weights is not None
+        self._fill(result.grad_points, result.grad_weights)
+        _, gradient = self.shell.gradient(self.surrogate)
+        return result, gradient
