@@ -150,13 +150,15 @@ def shell_taylor_rates(shell, objective, design, step) -> tuple[list[float], lis
     import math
 
     import dolfinx.fem
+    import ufl
 
     comm = design.function_space.mesh.comm
-    if callable(objective):
-        evaluate = objective
-    else:
+    form = isinstance(objective, ufl.Form)  # a Form is callable too (it replaces arguments)
+    if form:
         def evaluate():
             return shell.gradient(objective)
+    else:
+        evaluate = objective
     j0, gradient = evaluate()
     index_map = design.function_space.dofmap.index_map
     owned = index_map.size_local * design.function_space.dofmap.index_map_bs
@@ -166,8 +168,8 @@ def shell_taylor_rates(shell, objective, design, step) -> tuple[list[float], lis
     for h in (0.1, 0.05, 0.025):
         design.x.array[:] = start + h * step.x.array
         assert shell.solve().converged
-        value = evaluate()[0] if callable(objective) else comm.allreduce(
-            dolfinx.fem.assemble_scalar(dolfinx.fem.form(objective)))
+        value = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(
+            objective))) if form else evaluate()[0]
         remainders.append(abs(value - j0 - h * slope))
     return remainders, [math.log2(a / b) for a, b in zip(remainders, remainders[1:])]
 

@@ -1,7 +1,8 @@
 """The Helmholtz filter of (5.7): rho_hat - l^2 Laplace(rho_hat) = rho, zero flux.
 
-On the growth space with mass matrix M and K = M + l^2 S (S the stiffness
-matrix), the filtered nodal values are rho_hat = K^-1 M rho (``forward``).  A
+On the growth space (scalar, or a vector of fields filtered each alone) with mass matrix
+M and K = M + l^2 S (S the stiffness matrix), the filtered nodal values are
+rho_hat = K^-1 M rho (``forward``).  A
 derivative with respect to rho_hat (a dual vector) is carried back to rho by the
 transpose, M K^-1 (``backward``; K and M are symmetric).  l = 0 is the identity.
 The solver takes the options ``filter_...`` (CG + Jacobi by default: K is a
@@ -34,9 +35,9 @@ class HelmholtzFilter:
         dx = ufl.Measure("dx", domain=space.mesh, metadata={"quadrature_degree": 4})
         l2 = compat.constant(space.mesh, self.length**2)
         self.K = dolfinx.fem.petsc.assemble_matrix(
-            dolfinx.fem.form((u * v + l2 * ufl.inner(ufl.grad(u), ufl.grad(v))) * dx))
+            dolfinx.fem.form((ufl.inner(u, v) + l2 * ufl.inner(ufl.grad(u), ufl.grad(v))) * dx))
         self.K.assemble()
-        self.M = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(u * v * dx))
+        self.M = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(ufl.inner(u, v) * dx))
         self.M.assemble()
         self.ksp = PETSc.KSP().create(space.mesh.comm)
         self.options = SolverOptions(self.role, preset_options(preset, self.role),
