@@ -32,6 +32,17 @@ def _strip(cells: int = 12):
     return shell, m
 
 
+def _rolled(shell, m):
+    """The strip grown by lam_1 = 1.05 + 1.0 zeta (a stretch and a roll of about one radian):
+    its wall's cloud (ShellCloud), that cloud's points and weights, and its mid-surface's
+    nodes."""
+    m.interpolate(lambda x: np.vstack([1.05 + 0 * x[0], 1.0 + 0 * x[0], 1.0 + 0 * x[0],
+                                       0 * x[0]]))
+    assert shell.solve().converged
+    cloud = ShellCloud(shell)
+    return cloud, cloud.deformed(), shell.mid_surface()[1]
+
+
 def _total(cloud) -> float:
     return MPI.COMM_WORLD.allreduce(float(np.sum(cloud.weights)))
 
@@ -58,11 +69,7 @@ def test_the_wall_s_rho_h_passes_its_taylor_test():
     """rho_H of the wall against a rolled strip's wall (the same shell at another growth),
     its gradient through the shell's adjoint: the Taylor remainder falls like h^2."""
     shell, m = _strip()
-    m.interpolate(lambda x: np.vstack([1.05 + 0 * x[0], 1.0 + 0 * x[0], 1.0 + 0 * x[0],
-                                       0 * x[0]]))
-    assert shell.solve().converged
-    cloud = ShellCloud(shell)
-    target = cloud.deformed()
+    cloud, target, _ = _rolled(shell, m)
     m.interpolate(lambda x: np.vstack([1.1 + 0.05 * x[0], 1.0 + 0 * x[0], 1.2 + 0.3 * x[0],
                                        0.1 + 0 * x[0]]))
     assert shell.solve().converged
@@ -91,12 +98,7 @@ def test_the_optimiser_finds_a_rolled_strip_again_from_the_uniform_growth():
     from shapegrowth.optim.shell_problem import ShellDesign
 
     shell, m = _strip()
-    m.interpolate(lambda x: np.vstack([1.05 + 0 * x[0], 1.0 + 0 * x[0], 1.0 + 0 * x[0],
-                                       0 * x[0]]))
-    assert shell.solve().converged
-    cloud = ShellCloud(shell)
-    target = cloud.deformed()
-    _, goal = shell.mid_surface()
+    cloud, target, goal = _rolled(shell, m)
     m.interpolate(lambda x: np.vstack([1.0 + 0 * x[0], 1.0 + 0 * x[0], 0 * x[0], 0 * x[0]]))
     assert shell.solve().converged
     problem = ShellDesign(shell, target, SmoothHausdorff(alpha=50.0), [0.8, 0.8, -5.0, -5.0],
@@ -122,10 +124,7 @@ def test_the_filtered_shell_design_passes_its_taylor_test():
     from shapegrowth.optim.shell_problem import ShellDesign
 
     shell, m = _strip()
-    m.interpolate(lambda x: np.vstack([1.05 + 0 * x[0], 1.0 + 0 * x[0], 1.0 + 0 * x[0],
-                                       0 * x[0]]))
-    assert shell.solve().converged
-    target = ShellCloud(shell).deformed()
+    _, target, _ = _rolled(shell, m)
     m.interpolate(lambda x: np.vstack([1.1 + 0.05 * x[0], 1.0 + 0 * x[0], 1.2 + 0.3 * x[0],
                                        0.1 + 0 * x[0]]))
     problem = ShellDesign(shell, target, SmoothHausdorff(alpha=50.0), [0.5] * 2 + [-5.0] * 2,
