@@ -182,7 +182,7 @@ def _lifted_roll(cells: int, size: float, folder) -> ShellLift:
 
 
 @pytest.mark.mpi
-@pytest.mark.mpi_slow  # two ranks in the slow tier (8 s), with the tube's lift
+@pytest.mark.slow  # 12 s: once, on two ranks, with the tube's lift
 @pytest.mark.simplex
 def test_the_shell_s_growth_lifted_onto_the_3d_wall_grows_the_same_roll(shared_tmp):
     """The shell's growth carried onto the 3D box linear through the wall, grown from rest
@@ -223,8 +223,9 @@ def _clamped_strip_under(strain: float) -> int:
 
 
 @pytest.mark.mpi
-# two ranks in the slow tier (9 s): the fast tier's two-rank shell checks are the tube's
-@pytest.mark.mpi_slow
+# 14 s: once, on two ranks; the fast tier's shell checks are the roll, the wall of 1/600,
+# the Taylor tests and the tube's torus
+@pytest.mark.slow
 def test_a_strip_clamped_at_both_ends_buckles_at_euler_s_growth():
     """Growth along a strip held at both ends compresses it; its flat state loses stability
     where the compression reaches Euler's clamped-clamped load, a growth strain of
@@ -263,6 +264,7 @@ def _cap_error(cells: int, step: float) -> float:
     return float(np.abs(phi - exact).max())
 
 
+@pytest.mark.slow  # 14 s
 def test_a_disk_grown_by_a_sphere_s_metric_and_curvature_becomes_its_cap():
     """Gauss and Codazzi hold for the sphere's forms, so the cap is stress-free: reached at
     rate 2 (measured: 2.28e-3, 5.11e-4, 1.21e-4, 2.86e-5 at 4, 8, 16, 32 cells across, in

@@ -77,6 +77,7 @@ def test_the_bent_tube_lands_on_its_torus_the_same_on_every_rank_count():
 
 
 @pytest.mark.mpi
+@pytest.mark.slow  # 18 s: the fast tier's tube checks are its torus and Taylor test
 def test_a_tube_grown_round_with_its_wall_kept_becomes_the_wider_tube():
     """A hoop growth lam(zeta) = lam_m + zeta (1 - lam_m) / R keeps the wall's thickness
     (each fibre at height zeta goes to radius lam_m R + zeta): the cylinder of radius
