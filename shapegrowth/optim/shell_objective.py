@@ -21,7 +21,6 @@ from __future__ import annotations
 import dolfinx.fem
 import numpy as np
 import ufl
-from mpi4py import MPI
 
 from .. import compat
 from ..physics.shell import GrowthShell
@@ -45,18 +44,16 @@ class ShellCloud:
         F = reference.derivative(shell.phi)
         ratio = ufl.sqrt(ufl.det(F.T * F))
         base = self.base
-        self._points = [compat.expression_evaluator(shell.phi + float(z) * director,
-                                                    base.ref_points, shell.mesh, base.cells)
-                        for z in self.heights]
+        layer_points = [shell.phi + float(z) * director for z in self.heights]
+        self._points = [compat.expression_evaluator(x, base.ref_points, shell.mesh, base.cells)
+                        for x in layer_points]
         self._ratio = compat.expression_evaluator(ratio, base.ref_points, shell.mesh,
                                                   base.cells)
         # the derivative's fixed factors, three components and a weight a height
         self._gx = [[dolfinx.fem.Function(base.Q) for _ in range(3)] for _ in self.heights]
         self._gw = [dolfinx.fem.Function(base.Q) for _ in self.heights]
-        terms = []
-        for z, gx, gw in zip(self.heights, self._gx, self._gw):
-            x = shell.phi + float(z) * director
-            terms.append((sum(g * x[c] for c, g in enumerate(gx)) + gw * ratio) * base.dx)
+        terms = [(sum(g * x[c] for c, g in enumerate(gx)) + gw * ratio) * base.dx
+                 for x, gx, gw in zip(layer_points, self._gx, self._gw)]
         self.surrogate = sum(terms[1:], terms[0])
 
     def __len__(self) -> int:
@@ -90,14 +87,14 @@ class ShellCloud:
             gw.x.array[dofs] = share * grad_weights[rows]
             gw.x.scatter_forward()
 
-    def hausdorff(self, target: PointCloud, rho: SmoothHausdorff,
-                  comm: MPI.Comm | None = None) -> tuple[HausdorffResult, dolfinx.fem.Function]:
+    def hausdorff(self, target: PointCloud, rho: SmoothHausdorff, gradient: bool = True
+                  ) -> tuple[HausdorffResult, dolfinx.fem.Function | None]:
         """rho_H of the wall at the shell's current equilibrium against ``target`` (this
-        rank's share of it), and its gradient with respect to the shell's design
-        (collective)."""
-        comm = self.shell.mesh.comm if comm is None else comm
-        result = rho(self.deformed(), target, comm)
+        rank's share of it), and, where ``gradient``, its gradient with respect to the
+        shell's design (None otherwise; collective)."""
+        result = rho(self.deformed(), target, self.shell.mesh.comm, gradient=gradient)
+        if not gradient:
+            return result, None
         assert result.grad_points is not None and result.grad_weights is not None
         self._fill(result.grad_points, result.grad_weights)
-        _, gradient = self.shell.gradient(self.surrogate)
-        return result, gradient
+        return result, self.shell.gradient(self.surrogate)[1]

@@ -79,14 +79,17 @@ class ShellDesign:
                              f"the shell reached {solved.level:.4g} of the growth")
         if not solved.converged:
             raise StateSolveError(report)
-        result, dJ = self.cloud.hausdorff(self.target, self.rho)
+        result, dJ = self.cloud.hausdorff(self.target, self.rho, gradient)
         value = ObjectiveValue(total=result.value, rho_H=result.value, complexity=0.0,
                                d_target_to_body=result.d_target_to_body,
                                d_body_to_target=result.d_body_to_target,
                                hausdorff=result.hausdorff, shape=result.value,
                                alpha=self.rho.alpha)
-        self.filter.backward(compat.petsc_vec(dJ), compat.petsc_vec(self._dual))
-        evaluation = Evaluation(value, self._dual.x.array[:self.n_owned].copy(), report)
+        dm = None
+        if dJ is not None:  # dJ/dm_hat carried back through the filter to m
+            self.filter.backward(compat.petsc_vec(dJ), compat.petsc_vec(self._dual))
+            dm = self._dual.x.array[:self.n_owned].copy()
+        evaluation = Evaluation(value, dm, report)
         self._last = (key, evaluation)
         return evaluation
 
