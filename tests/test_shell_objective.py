@@ -62,6 +62,12 @@ def test_the_wall_s_cloud_weighs_the_wall_and_its_stretch():
     grown = cloud.deformed()
     assert _total(grown) == pytest.approx(1.1 * LENGTH * WIDTH * WALL, rel=1e-8)
     assert grown.points[:, 0] == pytest.approx(1.1 * rest.points[:, 0], abs=1e-8)
+    # the same stretch given as a target map: its cloud is the grown wall's, point for point
+    mapped = cloud.mapped(lambda X: X * np.array([1.1, 1.0, 1.0]))
+    assert mapped.points == pytest.approx(grown.points, abs=1e-8)
+    assert mapped.weights == pytest.approx(grown.weights, rel=1e-8)
+    with pytest.raises(ValueError, match=r"\(n, 3\) finite"):
+        cloud.mapped(lambda X: X[:, :2])
 
 
 @pytest.mark.mpi

@@ -18,6 +18,8 @@ adjoint (:meth:`GrowthShell.gradient`) carries it to the design.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import dolfinx.fem
 import numpy as np
 import ufl
@@ -74,6 +76,30 @@ class ShellCloud:
             return self.deformed()
         finally:
             self.shell.q.x.array[:] = saved
+
+    def mapped(self, target_map: Callable[[np.ndarray], np.ndarray]) -> PointCloud:
+        """A target given as a map of the body, sampled where the wall is sampled: the
+        undeformed wall's points X (this rank's, (n, 3)) carried to ``target_map(X)`` (n, 3),
+        weighted by the undeformed weights times |det grad map| (the target's own volume
+        measure; central differences of 1e-6 of the body's scale).  A wall that takes the
+        target shape then has this cloud for its own, point for point (to the shell's first
+        order in the thickness), where two clouds sampled apart lie as far apart as their
+        spacing (the wall's mid-surface points against a 3D body's)."""
+        rest = self.reference()
+        X = rest.points
+        points = np.asarray(target_map(X), dtype=float)
+        if points.shape != X.shape or not np.isfinite(points).all():
+            raise ValueError(f"the target map gives {points.shape} values, finite: "
+                             f"{bool(np.isfinite(points).all())}; it must give (n, 3) finite "
+                             "points for (n, 3)")
+        step = 1e-6 * max(float(np.abs(X).max(initial=0.0)), 1.0)
+        grad = np.empty((len(X), 3, 3))
+        for j in range(3):
+            shift = np.zeros(3)
+            shift[j] = step
+            grad[:, :, j] = (np.asarray(target_map(X + shift))
+                             - np.asarray(target_map(X - shift))) / (2.0 * step)
+        return PointCloud(points, rest.weights * np.abs(np.linalg.det(grad)))
 
     def _fill(self, grad_points: np.ndarray, grad_weights: np.ndarray) -> None:
         n, dofs, w = len(self.base), self.base.dofs, self.base.w
