@@ -99,14 +99,6 @@ def _mid_plane(solid: ForwardModel) -> float:
     return 0.5 * float(lo[2] + hi[2])
 
 
-def _director(theta: np.ndarray, t1: np.ndarray, t2: np.ndarray,
-              normal: np.ndarray) -> np.ndarray:
-    """The shell's director from its angles (n, 2) and the frame at the same points."""
-    th1, th2 = theta[:, :1], theta[:, 1:2]
-    return (np.sin(th2) * np.cos(th1)) * t1 - np.sin(th1) * t2 \
-        + (np.cos(th2) * np.cos(th1)) * normal
-
-
 def departure(shell: GrowthShell, solid: ForwardModel) -> float:
     """The largest distance of a 3D node from phi + zeta d of the shell, over the body's
     size (collective)."""
@@ -122,20 +114,14 @@ def departure(shell: GrowthShell, solid: ForwardModel) -> float:
         across[:, 1], across[:, 2] = X[:, 1] / r, X[:, 2] / r
         zeta = r - radius
         middle = X - zeta[:, None] * across  # the mid-surface's point below each node
-        (moved, angles), _ = surface_values(
-            [shell.nodal_displacement(), shell.angles()], middle)
-        along = np.tile([1.0, 0.0, 0.0], (n, 1))
-        director = _director(angles, along, np.cross(across, along), across)
+        (moved, director), _ = surface_values(
+            [shell.nodal_displacement(), shell.director_field()], middle)
     else:
         zeta = X[:, 2] - _mid_plane(solid)
         middle = X.copy()
         middle[:, 2] = 0.0
         moved = _on_solid(shell.displacement(), space).reshape(-1, 3)
-        angles = _on_solid(shell.angles(), compat.vector_space(
-            mesh, compat.space_degree(space), 2)).reshape(-1, 2)
-        e = np.eye(3)
-        director = _director(angles, np.tile(e[0], (n, 1)), np.tile(e[1], (n, 1)),
-                             np.tile(e[2], (n, 1)))
+        director = _on_solid(shell.director_field(), space).reshape(-1, 3)
     expected = middle + moved + zeta[:, None] * director
     placed = X + u3.x.array.reshape(-1, 3)
     owned = space.dofmap.index_map.size_local

@@ -41,8 +41,7 @@ class ShellCloud:
         self.heights = 0.5 * shell.thickness * nodes
         self.shares = 0.5 * shell.thickness * weights
         reference = shell.reference
-        _, theta = ufl.split(shell.q)
-        director = reference.director(theta)
+        director = shell.director
         F = reference.derivative(shell.phi)
         ratio = ufl.sqrt(ufl.det(F.T * F))
         base = self.base

@@ -5,7 +5,8 @@ The body is its mid-surface and its thickness t: a plane region, or a surface in
 a frame on it (physics/shell_forms.py: the :class:`Reference`; the rest forms abar, bbar
 the growth sets, :class:`RestForms`).  Kinematics and strains are FEniCSx-Shells' nonlinear
 Naghdi shell: phi = X + u (three components), the director d(theta) the reference's normal
-turned by two angles, F = D phi (the derivative along the frame's tangents), and
+turned by two angles (in a chart the continuation moves with the wall), F = D phi (the
+derivative along the frame's tangents), and
 
     a = F^T F,   b = -sym(F^T D d),   eps = (a - abar) / 2,   kappa = b - bbar,
     gamma = F^T d,
@@ -49,7 +50,7 @@ from petsc4py import PETSc
 from .. import compat
 from .linear import reason_of
 from .options import SolverOptions
-from .shell_forms import Reference, RestForms, ShellMaterial
+from .shell_forms import Reference, RestForms, ShellMaterial, turned
 
 __all__ = ["GrowthShell", "Pin", "Reference", "RestForms", "ShellMaterial",
            "ShellSolveReport", "sub_function"]
@@ -103,16 +104,22 @@ class GrowthShell:
     space, gdim 3, whose frame ``reference`` gives) of thickness ``thickness``, clamped
     (u = 0, theta = 0) on the boundary facets where ``clamped(x)`` holds (None: nowhere),
     and held at ``pins``, grown towards ``rest``.  ``design``: the Function the rest forms
-    are made of, where gradients with respect to it are wanted (:meth:`gradient`)."""
+    are made of, where gradients with respect to it are wanted (:meth:`gradient`).
+    ``rebase``: None (the director's chart is the reference's, singular where a section has
+    turned by half a turn), or the angle (rad) past which the continuation moves the chart
+    onto its last equilibrium (:meth:`_rebase`; its Newton steps then backtrack)."""
 
     def __init__(self, mesh, thickness: float, material: ShellMaterial, rest: RestForms,
                  clamped: Callable[[np.ndarray], np.ndarray] | None, degree: int = 2,
                  design: dolfinx.fem.Function | None = None, pins: Sequence[Pin] = (),
-                 reference: Reference | None = None):
+                 reference: Reference | None = None, rebase: float | None = None):
         if reference is None:
             reference = Reference.plane(mesh)
         elif reference.mesh is not mesh:
             raise ValueError("the shell's reference is a frame on its own mesh")
+        if rebase is not None and not 0.0 < rebase < np.pi / 2:
+            raise ValueError(f"rebase {rebase}: an angle in (0, pi/2) rad, or None")
+        self.rebase = rebase
         self.mesh, self.thickness, self.material = mesh, thickness, material
         self.reference, self.degree = reference, degree
         self.V = compat.shell_space(mesh, degree)
@@ -127,7 +134,17 @@ class GrowthShell:
         phi = reference.position() + u
         self.phi = phi  # the deformed mid-surface, for objectives
         F = reference.derivative(phi)  # 3 x 2
-        d = reference.director(theta)
+        # the director's chart: the reference's frame turned by the rotation I + ``_turn``
+        # (a field of 3 x 3 matrices, zero until the continuation re-bases the chart on an
+        # equilibrium, :meth:`_rebase`), then by theta
+        self._turn = dolfinx.fem.Function(compat.vector_space(mesh, degree, 9))
+        t1, t2 = reference.tangents
+        self._frame = (t1, t2, reference.normal)
+        Q = ufl.Identity(3) + ufl.as_matrix([[self._turn[3 * r + c] for c in range(3)]
+                                             for r in range(3)])
+        self._turned = turned(theta, tuple(Q * e for e in self._frame))
+        d = self._turned[2]
+        self.director = d  # the deformed wall's fibre, for objectives
         a = F.T * F
         Dd = reference.derivative(d)
         b = -0.5 * (F.T * Dd + Dd.T * F)
@@ -163,6 +180,9 @@ class GrowthShell:
                 ufl.derivative(along, design, ufl.TestFunction(design.function_space)))
         self.bcs = (self._clamp(clamped) if clamped is not None else []) + \
             [self._pin(pin) for pin in pins]
+        self._angle_dofs = np.asarray(self.V.sub(1).collapse()[1], dtype=np.int64)
+        self._owned_angles = self._angle_dofs[
+            self._angle_dofs < self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs]
         self.A = compat.assemble_matrix(self.jacobian_form, self.bcs)
         self.A.assemble()
         self.b = compat.create_vector(self.residual_form)
@@ -225,7 +245,9 @@ class GrowthShell:
     def _newton(self) -> PETSc.SNES:
         snes = PETSc.SNES().create(self.mesh.comm)
         self.options = SolverOptions("state_", {
-            "snes_type": "newtonls", "snes_linesearch_type": "basic", "snes_max_it": 25,
+            "snes_type": "newtonls", "snes_max_it": 25,
+            # a moving chart's steps turn the wall by large angles: backtracking
+            "snes_linesearch_type": "basic" if self.rebase is None else "bt",
             "snes_rtol": 1e-10, "snes_atol": 1e-12 * self._force_scale(), "snes_stol": 0.0,
             "ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"})
         snes.setOptionsPrefix(self.options.prefix)
@@ -259,8 +281,41 @@ class GrowthShell:
                 self._at(x)
                 return ShellSolveReport(True, 1, iterations, 1.0)
             self.q.x.array[:] = 0.0
+            self._reset_chart()
             self.level.value = 0.0
         return self._continue(initial_step, min_step)
+
+    def _reset_chart(self) -> None:
+        self._turn.x.array[:] = 0.0
+
+    def _rebase(self, x: PETSc.Vec) -> np.ndarray | None:
+        """Where the angles of the equilibrium q (= x) exceed :attr:`rebase` somewhere, the
+        chart is moved onto it: the frame turned by theta at the nodes becomes the frame
+        and theta is set to 0 (the same director at the nodes).  The chart holds the
+        rotation that turns the reference's own frame onto it, interpolated between the
+        nodes: a section turned as a whole turns its frame by one rotation, as smooth as
+        the turn, while the reference's curvature stays exact.  The chart's one
+        singularity, th1 = +-pi/2, is then a quarter turn from the wall's present place,
+        not from its reference.  Returns the angles taken off this rank's owned entries
+        of x (None where the chart stays) (collective)."""
+        if self.rebase is None:
+            return None
+        angles = self.angles()
+        owned = angles.function_space.dofmap.index_map.size_local * 2
+        largest = float(np.abs(angles.x.array[:owned]).max(initial=0.0))
+        if self.mesh.comm.allreduce(largest, op=MPI.MAX) <= self.rebase:
+            return None
+        rotation = sum((ufl.outer(a, e) for a, e in zip(self._turned, self._frame)),
+                       -ufl.Identity(3))  # the new turn: sum_i a_i (x) e_i - I
+        moved = dolfinx.fem.Function(self._turn.function_space)
+        compat.interpolate_expression(
+            moved, ufl.as_vector([rotation[r, c] for r in range(3) for c in range(3)]))
+        self._turn.x.array[:] = moved.x.array
+        taken = x.array[self._owned_angles].copy()
+        self.q.x.array[self._angle_dofs] = 0.0
+        self.q.x.scatter_forward()
+        compat.petsc_vec(self.q).copy(x)
+        return taken
 
     def _continue(self, initial_step: float, min_step: float) -> ShellSolveReport:
         q = compat.petsc_vec(self.q)
@@ -281,10 +336,15 @@ class GrowthShell:
             iterations += self._snes.getIterationNumber()
             if reason > 0:
                 self._at(x)
+                taken = self._rebase(x)
+                if taken is not None:  # the last step's angles in the new chart (to first
+                    saved.array[self._owned_angles] -= taken  # order): the predictor holds
                 before = (level, saved)
                 level, steps = trial, steps + 1
                 step = min(2.0 * step, initial_step)
                 continue
+            log.debug("shell: step to %.4g failed (SNES reason %d after %d iterations)",
+                      trial, reason, self._snes.getIterationNumber())
             saved.copy(x)
             self._at(x)
             self.level.value = level
@@ -317,6 +377,12 @@ class GrowthShell:
     def displacement(self) -> dolfinx.fem.Function:
         """u as a Function of its own space."""
         return sub_function(self.q, 0)
+
+    def director_field(self) -> dolfinx.fem.Function:
+        """The director d at the Lagrange nodes of the shell's degree (a vector Function)."""
+        d = dolfinx.fem.Function(compat.vector_space(self.mesh, self.degree, 3))
+        compat.interpolate_expression(d, self.director)
+        return d
 
     def angles(self) -> dolfinx.fem.Function:
         """The director's angles theta as a Function of their own space."""
