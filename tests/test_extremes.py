@@ -84,3 +84,22 @@ def test_an_inverted_state_is_not_an_equilibrium(shared_tmp):
     assert state.inverted_points() == 0
     state.u.interpolate(lambda x: np.stack([-2.0 * x[0], 0.0 * x[0], 0.0 * x[0]]))
     assert state.inverted_points() == cells * points_per_cell
+
+
+def test_solve_says_which_files_it_wrote_where_the_fields_writer_fails(tmp_path, monkeypatch,
+                                                                       capsys):
+    """A fields writer that fails (dolfinx 0.5.2's pull-back on badly distorted curved cells)
+    leaves summary.json, says so in one warning, and the closing line names only what was
+    written (the console's lines: the CLI logs to stdout)."""
+
+    def refuse(*_args, **_kwargs):
+        raise RuntimeError("the pull-back of a geometry node failed")
+
+    monkeypatch.setattr(compat, "write_xdmf", refuse)
+    assert run_cli("solve", CUBE, "--out", tmp_path) == 0
+    assert read_json(tmp_path / "summary.json")["status"] == "converged"
+    assert not (tmp_path / "fields.xdmf").exists()
+    lines = capsys.readouterr().out.splitlines()
+    assert sum("not written" in line for line in lines) == 1, lines
+    assert not any("fields.xdmf" in line and line.startswith("wrote") for line in lines)
+    assert f"wrote {tmp_path / 'summary.json'}" in lines

@@ -50,10 +50,12 @@ def report_run(summary: RunSummary, settled: Settled, out: Path,
              summary.rho_H_final or float("nan"))
     if summary.status == Outcome.max_iterations():
         report_budget(history, window)
-    log.info("results in %s: summary.json, history.csv, history.png, shape.png, fields.xdmf",
-             out)
-    log.info("view: paraview %s, Filters > Warp By Vector (displacement), colour by lambda_hat_1",
-             out / "fields.xdmf")
+    written = [name for name in ("summary.json", "history.csv", "history.png", "shape.png",
+                                 "fields.xdmf") if (out / name).exists()]
+    log.info("results in %s: %s", out, ", ".join(written))
+    if "fields.xdmf" in written:
+        log.info("view: paraview %s, Filters > Warp By Vector (displacement), colour by "
+                 "lambda_hat_1", out / "fields.xdmf")
 
 
 def report_budget(history: Sequence[Record], window: int) -> None:

@@ -118,14 +118,17 @@ def _solve_forward(cfg: Config, out: Path, probe_texts: list[str] | tuple[str, .
     # summary.json before the fields: a writer that fails (dolfinx 0.5.2's XDMF pull-back on
     # badly distorted curved cells) leaves the numbers
     io.write_json(out / "summary.json", summary.to_json())
-    io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
-                    extra=[model.residual_strain_field(), stability_problem.mode])
+    fields = io.write_fields(out / "fields.xdmf", model.state.u, model.state.applied,
+                             extra=[model.residual_strain_field(), stability_problem.mode])
     for p, d in zip(probes, deformed):
         log.info("probe X = (%s) -> Phi(X) = (%s)", ", ".join(f"{v:.6g}" for v in p[:n_probe]),
                  ", ".join(f"{v:.6g}" for v in d))
-    log.info("wrote %s and %s", out / "summary.json", out / "fields.xdmf")
-    log.info("view: paraview %s, then Filters > Warp By Vector (displacement)",
-             out / "fields.xdmf")
+    if fields:
+        log.info("wrote %s and %s", out / "summary.json", out / "fields.xdmf")
+        log.info("view: paraview %s, then Filters > Warp By Vector (displacement)",
+                 out / "fields.xdmf")
+    else:
+        log.info("wrote %s", out / "summary.json")
     return summary
 
 

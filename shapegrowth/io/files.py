@@ -84,8 +84,9 @@ def eigenvector_fields(growth: Growth) -> list[dolfinx.fem.Function]:
 
 
 def write_fields(path: Path, displacement: dolfinx.fem.Function, growth: Growth,
-                 extra: Sequence[dolfinx.fem.Function] = ()) -> None:
-    """fields.xdmf: displacement, growth eigenvalues (and angles), eigenvectors."""
+                 extra: Sequence[dolfinx.fem.Function] = ()) -> bool:
+    """fields.xdmf: displacement, growth eigenvalues (and angles), eigenvectors.  Whether it
+    was written (a writer that fails says so in one warning, collectively)."""
     functions = [viewable(displacement, "displacement")]
     functions += [viewable(f) for f in growth.fields]
     functions += eigenvector_fields(growth)
@@ -94,6 +95,8 @@ def write_fields(path: Path, displacement: dolfinx.fem.Function, growth: Growth,
         compat.write_xdmf(path, displacement.function_space.mesh, functions)
     except RuntimeError as err:  # dolfinx 0.5.2's pull-back on badly distorted curved cells
         log.warning("%s: not written (%s); the other outputs are", path, err)
+        return False
+    return True
 
 
 def write_growth(path: Path, growth: Growth, refine: int) -> None:
