@@ -272,22 +272,27 @@ growth: {frame: tube, degree: 2, eigenvalues: {initial: [1.0, 1.0, 1.0]}}
 """
 
 
-def _lifted_bend(cells: int, size: float, folder) -> ShellLift:
-    """The bent tube's shell about X1 (its mid-surface at radius 0.2 - 0.01 / 2, the
-    built-in tube's), its growth as four P1 fields, lifted onto the 3D tube of mesh size
-    ``size``."""
-    comm = MPI.COMM_WORLD
-    middle = 0.2 - WALL / 2
-    reference = tube_surface(comm, middle, LENGTH, cells, cells, axis=0)
-    stretches = dolfinx.fem.Function(compat.vector_space(reference.mesh, 1, 4))
-    stretches.interpolate(lambda x: np.vstack([
-        1.0 - BEND * middle * x[1] / np.hypot(x[1], x[2]), 1.0 + 0.0 * x[0],
-        -BEND * x[1] / np.hypot(x[1], x[2]), 0.0 * x[0]]))
-    m = stretches
+def _tube_about_x1(cells: int) -> tuple[GrowthShell, dolfinx.fem.Function]:
+    """The built-in 3D tube's shell (about X1, its mid-surface at radius 0.2 - 0.01 / 2),
+    ``cells`` round and along, clamped at X1 = 0, its growth the four P1 fields m (the
+    stretches along and round, their slopes through the wall), 0 until set."""
+    reference = tube_surface(MPI.COMM_WORLD, RADIUS - WALL / 2, LENGTH, cells, cells, axis=0)
+    m = dolfinx.fem.Function(compat.vector_space(reference.mesh, 1, 4))
     rest = RestForms.of_stretches(ufl.Identity(2), ufl.as_vector([m[0], m[1]]),
                                   ufl.as_vector([m[2], m[3]]), reference)
     shell = GrowthShell(reference.mesh, WALL, ShellMaterial.of_energy(MooneyRivlin()), rest,
                         lambda x: np.isclose(x[0], 0.0), design=m, reference=reference)
+    return shell, m
+
+
+def _lifted_bend(cells: int, size: float, folder) -> ShellLift:
+    """The bent tube's shell about X1, its growth as four P1 fields, lifted onto the 3D tube
+    of mesh size ``size``."""
+    shell, stretches = _tube_about_x1(cells)
+    middle = RADIUS - WALL / 2
+    stretches.interpolate(lambda x: np.vstack([
+        1.0 - BEND * middle * x[1] / np.hypot(x[1], x[2]), 1.0 + 0.0 * x[0],
+        -BEND * x[1] / np.hypot(x[1], x[2]), 0.0 * x[0]]))
     assert shell.solve().converged
     return lifted_shell(shell, stretches, _TUBE, size, folder)
 
@@ -349,13 +354,7 @@ def test_the_tube_shell_finds_the_bent_tube_from_the_uniform_growth_and_its_lift
     from shapegrowth.shape.hausdorff import SmoothHausdorff
 
     comm = MPI.COMM_WORLD
-    middle = RADIUS - WALL / 2
-    reference = tube_surface(comm, middle, LENGTH, 16, 16, axis=0)
-    m = dolfinx.fem.Function(compat.vector_space(reference.mesh, 1, 4))
-    rest = RestForms.of_stretches(ufl.Identity(2), ufl.as_vector([m[0], m[1]]),
-                                  ufl.as_vector([m[2], m[3]]), reference)
-    shell = GrowthShell(reference.mesh, WALL, ShellMaterial.of_energy(MooneyRivlin()), rest,
-                        lambda x: np.isclose(x[0], 0.0), design=m, reference=reference)
+    shell, m = _tube_about_x1(16)
     cloud = ShellCloud(shell)
     target = cloud.mapped(_torus)
     m.interpolate(lambda x: np.vstack([1.0 + 0 * x[0], 1.0 + 0 * x[0], 0 * x[0], 0 * x[0]]))

@@ -134,15 +134,19 @@ class GrowthShell:
         phi = reference.position() + u
         self.phi = phi  # the deformed mid-surface, for objectives
         F = reference.derivative(phi)  # 3 x 2
-        # the director's chart: the reference's frame turned by the rotation I + ``_turn``
-        # (a field of 3 x 3 matrices, zero until the continuation re-bases the chart on an
-        # equilibrium, :meth:`_rebase`), then by theta
-        self._turn = dolfinx.fem.Function(compat.vector_space(mesh, degree, 9))
+        # the director's chart: the reference's frame, turned (where the chart moves) by
+        # the rotation I + ``_turn`` (a field of 3 x 3 matrices, zero until the continuation
+        # re-bases the chart on an equilibrium, :meth:`_rebase`), then by theta
         t1, t2 = reference.tangents
         self._frame = (t1, t2, reference.normal)
-        Q = ufl.Identity(3) + ufl.as_matrix([[self._turn[3 * r + c] for c in range(3)]
-                                             for r in range(3)])
-        self._turned = turned(theta, tuple(Q * e for e in self._frame))
+        chart = self._frame
+        self._turn: dolfinx.fem.Function | None = None
+        if rebase is not None:
+            self._turn = dolfinx.fem.Function(compat.vector_space(mesh, degree, 9))
+            Q = ufl.Identity(3) + ufl.as_matrix([[self._turn[3 * r + c] for c in range(3)]
+                                                 for r in range(3)])
+            chart = tuple(Q * e for e in chart)
+        self._turned = turned(theta, chart)
         d = self._turned[2]
         self.director = d  # the deformed wall's fibre, for objectives
         a = F.T * F
@@ -180,9 +184,11 @@ class GrowthShell:
                 ufl.derivative(along, design, ufl.TestFunction(design.function_space)))
         self.bcs = (self._clamp(clamped) if clamped is not None else []) + \
             [self._pin(pin) for pin in pins]
-        self._angle_dofs = np.asarray(self.V.sub(1).collapse()[1], dtype=np.int64)
-        self._owned_angles = self._angle_dofs[
-            self._angle_dofs < self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs]
+        if rebase is not None:  # the angles' entries of q, all and owned
+            self._angle_dofs = np.asarray(self.V.sub(1).collapse()[1], dtype=np.int64)
+            self._owned_angles = self._angle_dofs[
+                self._angle_dofs < self.V.dofmap.index_map.size_local
+                * self.V.dofmap.index_map_bs]
         self.A = compat.assemble_matrix(self.jacobian_form, self.bcs)
         self.A.assemble()
         self.b = compat.create_vector(self.residual_form)
@@ -286,7 +292,8 @@ class GrowthShell:
         return self._continue(initial_step, min_step)
 
     def _reset_chart(self) -> None:
-        self._turn.x.array[:] = 0.0
+        if self._turn is not None:
+            self._turn.x.array[:] = 0.0
 
     def _rebase(self, x: PETSc.Vec) -> np.ndarray | None:
         """Where the angles of the equilibrium q (= x) exceed :attr:`rebase` somewhere, the
@@ -298,11 +305,10 @@ class GrowthShell:
         singularity, th1 = +-pi/2, is then a quarter turn from the wall's present place,
         not from its reference.  Returns the angles taken off this rank's owned entries
         of x (None where the chart stays) (collective)."""
-        if self.rebase is None:
+        if self.rebase is None or self._turn is None:
             return None
-        angles = self.angles()
-        owned = angles.function_space.dofmap.index_map.size_local * 2
-        largest = float(np.abs(angles.x.array[:owned]).max(initial=0.0))
+        taken = x.array[self._owned_angles].copy()
+        largest = float(np.abs(taken).max(initial=0.0))
         if self.mesh.comm.allreduce(largest, op=MPI.MAX) <= self.rebase:
             return None
         rotation = sum((ufl.outer(a, e) for a, e in zip(self._turned, self._frame)),
@@ -311,7 +317,6 @@ class GrowthShell:
         compat.interpolate_expression(
             moved, ufl.as_vector([rotation[r, c] for r in range(3) for c in range(3)]))
         self._turn.x.array[:] = moved.x.array
-        taken = x.array[self._owned_angles].copy()
         self.q.x.array[self._angle_dofs] = 0.0
         self.q.x.scatter_forward()
         compat.petsc_vec(self.q).copy(x)

@@ -136,17 +136,12 @@ class Reference:
             return ufl.as_matrix([[0.0, 0.0], [0.0, 0.0]])
         return -ufl.sym(self.frame.T * self.derivative(self.normal))
 
-    def director(self, theta: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
-        """d = sin th2 cos th1 t1 - sin th1 t2 + cos th2 cos th1 n: the normal turned by the
-        two angles (FEniCSx-Shells' nonlinear Naghdi director, in the frame)."""
-        t1, t2 = self.tangents
-        return turned(theta, (t1, t2, self.normal))[2]
-
 
 def turned(theta: ufl.core.expr.Expr, frame: tuple) -> tuple:
     """The frame (a1, a2, a3) turned by the director's two angles, Q = R_2(th2) R_1(th1) in
     it: its third vector sin th2 cos th1 a1 - sin th1 a2 + cos th2 cos th1 a3 is the
-    director; the chart is singular where th1 reaches +-pi/2."""
+    director (FEniCSx-Shells' nonlinear Naghdi director, in the frame); the chart is
+    singular where th1 reaches +-pi/2."""
     a1, a2, a3 = frame
     c1, s1, c2, s2 = ufl.cos(theta[0]), ufl.sin(theta[0]), ufl.cos(theta[1]), ufl.sin(theta[1])
     return (c2 * a1 - s2 * a3, (s1 * s2) * a1 + c1 * a2 + (s1 * c2) * a3,
