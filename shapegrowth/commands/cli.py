@@ -184,6 +184,11 @@ def _gradcheck(cfg, args) -> int:
 def _run(cfg, args) -> int:
     from .run import lift_config, run_optimization
 
+    if cfg.shell:  # the thin body's mid-surface shell, verified on the 3D body
+        from .shell_run import run_shell
+
+        return _exit_status(run_shell(cfg, args.out or cfg.output_dir).summary)
+
     onto = lift_config(cfg, args.overrides)  # its problems before the run starts
     return _exit_status(run_optimization(cfg, args.out or cfg.output_dir, args.resume,
                                          onto).summary)
@@ -310,6 +315,10 @@ def _join_negative_values(argv: list[str]) -> list[str]:
     return out
 
 
+# the commands a shell model (model.reduction: shell) runs under
+SHELL_COMMANDS = ("validate", "run")
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(_join_negative_values(argv))
@@ -327,6 +336,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "verify":
             return _verify(args)
         cfg = load(args.config, args.overrides)
+        if cfg.shell and args.command not in SHELL_COMMANDS:
+            raise ConfigError([f"model.reduction: a shell model runs under "
+                               f"{' and '.join(SHELL_COMMANDS)}, not {args.command}; use "
+                               "model.dim: 3 for the 3D body"])
         return COMMANDS[args.command](cfg, args)
     except (ConfigError, InputError) as err:
         return bad_input(err)

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 from .expressions import CONSTANTS, COORDINATES, FUNCTIONS, Expression, ExpressionError
 from .material_checks import check_material
-from .reduction import SECTIONED, Section, section_of
+from .reduction import SECTIONED, SHELL, Section, section_of
 from .sections import (
     BOUNDARIES,
     CAD_FORMATS,
@@ -25,6 +25,7 @@ from .sections import (
     ModelConfig,
 )
 from .selectors import msh_physical_names, parse_selector
+from .shell_checks import check_shell
 from .target_checks import OFF_SECTION, check_compare, check_target
 
 if TYPE_CHECKING:
@@ -38,6 +39,8 @@ GRADED = (("box", "x1_min"), ("tube", "x1_min"), ("annulus", "inner_rim"),
 
 def resolve_and_check(cfg: Config, errors: list[str]) -> Config:
     """Cross-field rules and dimension-dependent defaults."""
+    if cfg.model.dim == 2 and cfg.model.reduction == SHELL:  # checked as its 3D body
+        return check_shell(cfg, errors, resolve_and_check)
     geo, dim = cfg.geometry, cfg.model.dim
     kind = geo.kind
     for name in ("length", "width", "thickness", "radius", "inner_radius", "height", "side"):

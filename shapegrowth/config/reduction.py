@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-SOLID, PLANE_BODY = "solid", "plane_body"
+SOLID, PLANE_BODY, SHELL = "solid", "plane_body", "shell"
 SECTIONED = ("box", "annulus", "cylinder_shell")  # 3D bodies that have a 2D section model
 
 
@@ -33,7 +33,7 @@ class Section:
     @property
     def reduced(self) -> bool:
         """A 2D model of a 3D body (its growth and target are the 3D body's)."""
-        return self.kind not in (SOLID, PLANE_BODY)
+        return self.kind not in (SOLID, PLANE_BODY, SHELL)
 
     @property
     def axisymmetric(self) -> bool:
@@ -84,6 +84,8 @@ def section_of(dim: int, kind: str, reduction: str) -> Section:
     x1x3, the only one a sectioned body has)."""
     if dim == 3:
         return Section(SOLID, (0, 1, 2))
+    if reduction == SHELL:  # a thin 3D body's mid-surface (physics/shell_bodies.py)
+        return Section(SHELL, (0, 1, 2))
     if kind not in SECTIONED:
         return Section(PLANE_BODY, (0, 1), stress_free=reduction == "plane_stress")
     return Section(reduction, (0, 2), stress_free=reduction == "plane_stress")

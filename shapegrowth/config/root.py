@@ -93,7 +93,12 @@ class Config:
     @property
     def growth_dim(self) -> int:
         """Eigen-directions of C_g: 3 for a 3D body, reduced or not; 2 for a plane body."""
-        return 3 if self.model.dim == 3 or self.section.reduced else 2
+        return 3 if self.model.dim == 3 or self.section.reduced or self.shell else 2
+
+    @property
+    def shell(self) -> bool:
+        """A thin 3D body modelled by its mid-surface's growth shell (model.reduction)."""
+        return self.model.dim == 2 and self.model.reduction == "shell"
 
     @property
     def expression_params(self) -> dict[str, float]:

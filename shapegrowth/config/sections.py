@@ -42,7 +42,7 @@ FACE_ALIASES: dict[str, dict[str, str]] = {
     "cube": {"top": "x3_max", "bottom": "x3_min"},
 }
 PLANES = ("x1x2", "x1x3")
-REDUCTIONS = ("plane_strain", "plane_stress", "axisymmetric")
+REDUCTIONS = ("plane_strain", "plane_stress", "axisymmetric", "shell")
 LAYERED = ("box", "tube", "annulus", "cylinder_shell")  # bodies with a thin direction
 CURVED = ("tube", "annulus", "cylinder_shell")  # bodies whose 3D hexahedra are curved cells
 FRAMES = ("cartesian", "cylindrical", "tube", "free")
@@ -117,8 +117,9 @@ class MeshConfig:
 
 @dataclass(frozen=True)
 class ModelConfig:
-    dim: int = option("3, or 2: a plane body (rectangle) or the section of a 3D body (box, "
-                      "annulus, cylinder_shell) in `plane`, reduced by `reduction`", 3,
+    dim: int = option("3, or 2: a plane body (rectangle), the section of a 3D body (box, "
+                      "annulus, cylinder_shell) in `plane`, reduced by `reduction`, or a "
+                      "thin body's shell (reduction: shell)", 3,
                       choices=(2, 3))
     plane: str | None = option(
         "dim 2: the coordinate plane the 2D mesh lies in: x1x2 (rectangle) or x1x3 (the "
@@ -126,8 +127,10 @@ class ModelConfig:
         "the geometry's", None, choices=PLANES)
     reduction: str = option(
         "dim 2: what the third direction does: plane_strain (no stretch), plane_stress (free "
-        "stretch, no stress) or axisymmetric (the hoop stretch (R + u_R)/R of a body of "
-        "revolution about X3)", "plane_strain", choices=REDUCTIONS)
+        "stretch, no stress), axisymmetric (the hoop stretch (R + u_R)/R of a body of "
+        "revolution about X3), or shell: a thin box's or tube's mid-surface as a growth "
+        "shell, its growth lifted onto the 3D wall for the verification (docs/SHELLS.md)",
+        "plane_strain", choices=REDUCTIONS)
     degree: int = option("polynomial degree of the displacement", 2, choices=(1, 2))
     quadrature_degree: int | None = option(
         "quadrature degree of the energy (default 2*degree; UFL's own estimate is far higher)",

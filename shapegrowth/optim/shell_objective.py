@@ -27,6 +27,7 @@ import ufl
 from .. import compat
 from ..physics.shell import GrowthShell
 from ..shape.clouds import QuadratureCloud
+from ..shape.divergence import ShapeDivergence, ShapeTerm
 from ..shape.hausdorff import HausdorffResult, PointCloud, SmoothHausdorff
 
 
@@ -117,9 +118,17 @@ class ShellCloud:
         """rho_H of the wall at the shell's current equilibrium against ``target`` (this
         rank's share of it), and, where ``gradient``, its gradient with respect to the
         shell's design (None otherwise; collective)."""
-        result = rho(self.deformed(), target, self.shell.mesh.comm, gradient=gradient)
+        term, dJ = self.shape_term(target, ShapeDivergence(rho, "paper"), gradient)
+        return term.pair, dJ
+
+    def shape_term(self, target: PointCloud, divergence: ShapeDivergence, gradient: bool = True
+                   ) -> tuple[ShapeTerm, dolfinx.fem.Function | None]:
+        """The shape term of ``divergence`` (rho_H, or rho_H debiased) of the wall at the
+        shell's current equilibrium against ``target``, and, where ``gradient``, its gradient
+        with respect to the shell's design (None otherwise; collective)."""
+        term = divergence(self.deformed(), target, self.shell.mesh.comm, gradient=gradient)
         if not gradient:
-            return result, None
-        assert result.grad_points is not None and result.grad_weights is not None
-        self._fill(result.grad_points, result.grad_weights)
-        return result, self.shell.gradient(self.surrogate)[1]
+            return term, None
+        assert term.grad_points is not None and term.grad_weights is not None
+        self._fill(term.grad_points, term.grad_weights)
+        return term, self.shell.gradient(self.surrogate)[1]

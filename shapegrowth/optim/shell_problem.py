@@ -1,4 +1,5 @@
-"""A growth shell's reduced functional J(m) = rho_H(wall(m), target), as the optimisation
+"""A growth shell's reduced functional J(m) = S(wall(m), target), S rho_H or rho_H debiased
+(shape/divergence.py), as the optimisation
 driver sees it (:class:`optim.interface.DesignProblem`): m the owned entries of the shell's
 design Function, or the raw fields the Helmholtz filter (5.7) makes it of, each field
 bounded; the state the shell's equilibrium (from the last one, physics/shell.py); dJ/dm by
@@ -18,7 +19,9 @@ from ..errors import StateSolveError
 from ..physics.filters import HelmholtzFilter
 from ..physics.shell import GrowthShell
 from ..physics.state import SolveReport
+from ..shape.divergence import ShapeDivergence
 from ..shape.hausdorff import PointCloud, SmoothHausdorff
+from ..timing import Timer
 from .objective import ObjectiveValue
 from .problem import Evaluation
 from .shell_objective import ShellCloud
@@ -32,7 +35,8 @@ class ShellDesign:
 
     def __init__(self, shell: GrowthShell, target: PointCloud, rho: SmoothHausdorff,
                  lower: Sequence[float], upper: Sequence[float], cloud: ShellCloud | None = None,
-                 filter_length: float = 0.0):
+                 filter_length: float = 0.0, form: str = "paper",
+                 fixed: Sequence[int] = (), timer: Timer | None = None):
         if shell.design is None:
             raise ValueError("the shell was built without a design: nothing to optimise")
         self.shell, self.target, self.rho = shell, target, rho
@@ -47,6 +51,14 @@ class ShellDesign:
         self.n_owned = dofmap.index_map.size_local * self.fields
         self.lower = np.tile(np.asarray(lower, dtype=float), self.n_owned // self.fields)
         self.upper = np.tile(np.asarray(upper, dtype=float), self.n_owned // self.fields)
+        for field in fixed:  # held where they start: their bounds at their values
+            if not 0 <= field < self.fields:
+                raise ValueError(f"fixed field {field}: the design has {self.fields}")
+            here = self.design.x.array[field:self.n_owned:self.fields]
+            self.lower[field::self.fields] = here
+            self.upper[field::self.fields] = here
+        self.form = form  # the shape term: rho_H itself ("paper") or debiased
+        self.timer = timer if timer is not None else Timer()
         self._last: tuple[bytes, Evaluation] | None = None
         space = self.design.function_space
         self.filter = HelmholtzFilter(space, filter_length)
@@ -71,23 +83,29 @@ class ShellDesign:
             return self._last[1]
         self.raw.x.array[:self.n_owned] = m
         self.raw.x.scatter_forward()
-        self.filter.forward(self.raw, self.design)
-        solved = self.shell.solve()
+        with self.timer("filter"):
+            self.filter.forward(self.raw, self.design)
+        with self.timer("forward"):
+            solved = self.shell.solve()
         report = SolveReport(converged=solved.converged, steps=solved.steps,
                              newton_iterations=solved.newton_iterations, reached=solved.level,
                              reason="" if solved.converged else
                              f"the shell reached {solved.level:.4g} of the growth")
         if not solved.converged:
             raise StateSolveError(report)
-        result, dJ = self.cloud.hausdorff(self.target, self.rho, gradient)
-        value = ObjectiveValue(total=result.value, rho_H=result.value, complexity=0.0,
+        with self.timer("hausdorff"):  # and the shell's adjoint, where gradient
+            term, dJ = self.cloud.shape_term(self.target, ShapeDivergence(self.rho, self.form),
+                                             gradient)
+        result = term.pair
+        value = ObjectiveValue(total=term.value, rho_H=result.value, complexity=0.0,
                                d_target_to_body=result.d_target_to_body,
                                d_body_to_target=result.d_body_to_target,
-                               hausdorff=result.hausdorff, shape=result.value,
+                               hausdorff=result.hausdorff, shape=term.value,
                                alpha=self.rho.alpha)
         dm = None
         if dJ is not None:  # dJ/dm_hat carried back through the filter to m
-            self.filter.backward(compat.petsc_vec(dJ), compat.petsc_vec(self._dual))
+            with self.timer("filter"):
+                self.filter.backward(compat.petsc_vec(dJ), compat.petsc_vec(self._dual))
             dm = self._dual.x.array[:self.n_owned].copy()
         evaluation = Evaluation(value, dm, report)
         self._last = (key, evaluation)
