@@ -93,6 +93,10 @@ def test_commands_other_than_run_refuse_a_shell_config(tmp_path, capsys):
     assert status == 2
     assert lines == ["error: model.reduction: a shell model runs under validate and run, not "
                      "solve; use model.dim: 3 for the 3D body"]
+    assert run_cli("run", path, "--resume") == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "error: run --resume: a shell run keeps no checkpoint and starts anew; run it without "
+        "--resume"]
 
 
 def _owned(f):
@@ -102,7 +106,7 @@ def _owned(f):
 
 @pytest.mark.mpi
 @pytest.mark.simplex  # the 3D box's DOFs and numbers on tetrahedra
-def test_the_arc_s_growth_starts_the_shell_exactly_and_verifies_on_the_3d_box(tmp_path):
+def test_the_arc_s_growth_starts_the_shell_exactly_and_verifies_on_the_3d_box(shared_tmp):
     """lambda_1 = (1 + kappa x3)^2 is the shell's design exactly (faces' stretches 1 -+ kappa
     t/2, so m_1 = 1 and s_1 = kappa); one iteration from it, the shell's wall lies 5.2e-4 of
     the arc's size from the arc, and the growth carried onto the 3D box (its mesh refined
@@ -111,7 +115,7 @@ def test_the_arc_s_growth_starts_the_shell_exactly_and_verifies_on_the_3d_box(tm
     from shapegrowth.commands.shell_run import run_shell
     from shapegrowth.physics.shell_bodies import shell_body
 
-    cfg = from_dict(_arc(tmp_path / "out", **{"growth.eigenvalues.initial": [EXACT, 1.0, 1.0]}))
+    cfg = from_dict(_arc(shared_tmp / "out", **{"growth.eigenvalues.initial": [EXACT, 1.0, 1.0]}))
     body = shell_body(cfg)
     faces = _owned(body.faces)
     half = 0.5 * cfg.geometry.thickness
@@ -122,7 +126,7 @@ def test_the_arc_s_growth_starts_the_shell_exactly_and_verifies_on_the_3d_box(tm
     assert stretches[:, 0] == pytest.approx(1.0, rel=1e-12)
     assert stretches[:, 2] == pytest.approx(KAPPA, rel=1e-9)
 
-    summary = run_shell(cfg, tmp_path / "out").summary
+    summary = run_shell(cfg, shared_tmp / "out").summary
     lifted = summary.verified.lifted
     assert summary.relative_error == pytest.approx(5.23e-4, rel=2e-2)
     assert lifted.dofs == 9855 and lifted.status == "solved"
@@ -130,15 +134,22 @@ def test_the_arc_s_growth_starts_the_shell_exactly_and_verifies_on_the_3d_box(tm
     assert lifted.departure == pytest.approx(5.24e-4, rel=2e-2)
     assert summary.dofs.state == 645
     if MPI.COMM_WORLD.rank == 0:
-        written = json.loads((tmp_path / "out" / "summary.json").read_text())
+        written = json.loads((shared_tmp / "out" / "summary.json").read_text())
         assert written["verified"]["lifted"]["relative"] == pytest.approx(lifted.relative)
-        assert (tmp_path / "out" / "history.csv").is_file()
+        assert (shared_tmp / "out" / "history.csv").is_file()
+        assert (shared_tmp / "out" / "fields.xdmf").is_file()
+        # the 3D body's growth: the shell's carried linearly through the wall, here exactly
+        # the arc's lambda_1 = (1 + kappa x3)^2 at every node of the 3D mesh
+        grown = np.load(shared_tmp / "out" / "growth.npz")
+        x3 = grown["points"][:, 2]
+        assert np.abs(grown["lambda_hat_1"] - (1.0 + KAPPA * x3) ** 2).max() < 1e-12
+        assert np.abs(grown["lambda_hat_3"] - 1.0).max() < 1e-12
 
 
 @pytest.mark.slow  # 20 s: 150 shell evaluations and the 3D box from rest
 @pytest.mark.mpi
 @pytest.mark.simplex
-def test_a_shell_run_finds_the_arc_from_the_uniform_growth_and_verifies_in_3d(tmp_path):
+def test_a_shell_run_finds_the_arc_from_the_uniform_growth_and_verifies_in_3d(shared_tmp):
     """A reachable target found again (configs/examples/strip_arc_shell.yaml, the strip of
     ARC): from the uniform growth, L-BFGS on the shell's faces' stretch of lambda_1 (alpha 50, 200, 1000; 150 iterations).  Measured: the wall's
     Hausdorff distance 0.450 -> 7.2e-4 (54 % -> 0.087 % of the arc's size); the 3D box grown
@@ -150,8 +161,8 @@ def test_a_shell_run_finds_the_arc_from_the_uniform_growth_and_verifies_in_3d(tm
     from shapegrowth.commands.shell_run import run_shell
     from shapegrowth.config import load
 
-    cfg = load(CONFIGS / "examples" / "strip_arc_shell.yaml", [f"output.dir={tmp_path / 'out'}"])
-    summary = run_shell(cfg, tmp_path / "out").summary
+    cfg = load(CONFIGS / "examples" / "strip_arc_shell.yaml", [f"output.dir={shared_tmp / 'out'}"])
+    summary = run_shell(cfg, shared_tmp / "out").summary
     assert summary.hausdorff_initial == pytest.approx(0.4496, rel=1e-3)
     assert summary.relative_error < 2e-3
     assert summary.verified.lifted.relative <= 1e-2
@@ -190,7 +201,7 @@ def test_the_faces_design_of_a_config_s_shell_passes_its_taylor_test():
 @pytest.mark.slow  # 38 s: the 3D tube from rest
 @pytest.mark.mpi
 @pytest.mark.simplex
-def test_a_tube_s_shell_from_a_config_carries_the_bent_tube_s_growth_to_the_3d_tube(tmp_path):
+def test_a_tube_s_shell_from_a_config_carries_the_bent_tube_s_growth_to_the_3d_tube(shared_tmp):
     """The built-in tube (length 1, radius 0.2, wall 0.01) as a shell of 7 x 5 cells (mesh
     size 0.2), its growth of degree 2 set to the bent tube's exact lambda_1 =
     (1 - (pi/2) x2)^2 in the tube frame; one iteration, then the growth lifted onto the 3D
@@ -211,8 +222,8 @@ def test_a_tube_s_shell_from_a_config_carries_the_bent_tube_s_growth_to_the_3d_t
                               "(1 - cos(bend*x1))/bend + x2*cos(bend*x1)", "x3"]},
            "objective": {"hausdorff": {"alpha": 200.0}},
            "optimizer": {"algorithm": "lbfgs", "max_iterations": 1},
-           "output": {"dir": str(tmp_path / "out")}}
-    summary = run_shell(from_dict(raw), tmp_path / "out").summary
+           "output": {"dir": str(shared_tmp / "out")}}
+    summary = run_shell(from_dict(raw), shared_tmp / "out").summary
     lifted = summary.verified.lifted
     assert summary.relative_error == pytest.approx(2.78e-2, rel=2e-2)
     assert lifted.dofs == 10080

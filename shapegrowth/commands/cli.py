@@ -185,7 +185,12 @@ def _run(cfg, args) -> int:
     from .run import lift_config, run_optimization
 
     if cfg.shell:  # the thin body's mid-surface shell, verified on the 3D body
+        from ..errors import InputError
         from .shell_run import run_shell
+
+        if args.resume:
+            raise InputError("run --resume: a shell run keeps no checkpoint and starts anew; "
+                             "run it without --resume")
 
         return _exit_status(run_shell(cfg, args.out or cfg.output_dir).summary)
 

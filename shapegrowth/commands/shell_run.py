@@ -10,7 +10,9 @@ the wall, optim/shell_lift.py) on the 3D config's verification mesh (its mesh re
 is: that is the run's headline; the shell's own number is reported beside it, labelled.
 
 Outputs in the run folder: summary.json (``verified.lifted``: the 3D body's number, its
-DOFs and its departure from the shell), history.csv and history.png.
+DOFs and its departure from the shell), history.csv and history.png, and the verified 3D
+body's fields.xdmf (its displacement, the growth lifted onto it) and growth.npz (that
+growth at its nodes, on the 3D config's mesh refined ``verify.refine`` times).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from mpi4py import MPI
 from .. import compat
 from ..config import Config
 from ..config.shell_checks import solid_config
+from ..errors import StateSolveError
 from ..io import files as io
 from ..io.records import Lifted, Verified
 from ..io.summary import Dofs, OptimizationMeasures, RunSummary
@@ -61,11 +64,12 @@ def _fixed_fields(cfg: Config) -> tuple[int, ...]:
     return tuple(f for i in (0, 1) if i + 1 not in chosen for f in (i, i + 2))
 
 
-def _verify(cfg: Config, body, comm: MPI.Comm) -> Verified | None:
+def _verify(cfg: Config, body, comm: MPI.Comm) -> tuple[Verified | None, ForwardModel | None]:
     """The shell's best growth on the 3D body of ``cfg`` (its verification mesh), grown from
-    rest and measured (collective); None with verify off."""
+    rest and measured, and that 3D body where it reached an equilibrium (collective); None
+    with verify off."""
     if not cfg.verify.enabled:
-        return None
+        return None, None
     tic = time.perf_counter()
     solid_cfg = verification_model(solid_config(cfg))
     log.info("verifying: the shell's growth on the 3D %s (its mesh refined %d time(s)), grown "
@@ -78,13 +82,13 @@ def _verify(cfg: Config, body, comm: MPI.Comm) -> Verified | None:
         record = Lifted(None, None, lifted.dofs, time.perf_counter() - tic,
                         "failed: no equilibrium of the 3D body from rest", cfg.name)
         return Verified(None, None, cfg.verify.refine, shell_dofs, 0.0, False, status,
-                        lifted=record)
+                        lifted=record), None
     measured = measure_verified(solid_cfg, solid.state)
     record = Lifted(measured.hausdorff, measured.relative, lifted.dofs,
                     time.perf_counter() - tic, "solved", f"{cfg.name} (3D)", lifted.departure,
                     surface=measured.surface)
     return Verified(None, None, cfg.verify.refine, shell_dofs, 0.0, False, status,
-                    lifted=record)
+                    lifted=record), solid
 
 
 def run_shell(cfg: Config, out: Path) -> ShellRun:
@@ -115,16 +119,26 @@ def run_shell(cfg: Config, out: Path) -> ShellRun:
         timer.totals["optimizer"] += result.optimizer_seconds
         history, status = result.history, result.outcome
         if history:
-            final = problem.evaluate(driver.local(result.best))  # the shell left at the best
+            try:
+                final = problem.evaluate(driver.local(result.best))  # the shell at the best
+            except StateSolveError as err:
+                log.warning("shell: the best design's state is not found again (%s); the "
+                            "history is kept, nothing is verified", err.report.reason)
         evaluations = len(history)
     else:
         log.warning("shell: no equilibrium at the initial growth (reached %.3g of it)",
                     start.level)
     size = target.extent(comm)
-    verified = None
+    verified, solid = None, None
     if final is not None:
         with timer("forward", "verification"):
-            verified = _verify(cfg, body, comm)
+            verified, solid = _verify(cfg, body, comm)
+    if solid is not None:  # the 3D body's fields: what the verified number measured
+        with timer("io"):
+            applied = solid.applied
+            io.write_fields(out / "fields.xdmf", solid.displacement, applied,
+                            extra=[io.deformation_field(solid.displacement)])
+            io.write_growth(out / "growth.npz", applied, solid.cfg.mesh.refine)
     first = history[0] if history else None
     summary = RunSummary(
         name=cfg.name, status=status, iterations=len(history),
@@ -167,7 +181,7 @@ def _report(summary: RunSummary, out: Path) -> None:
                  f"{lifted.dofs} DOFs, grown from rest{departure})")
     log.info("%s after %d iterations: %s; self-reported %s (the shell's wall, its own "
              "path)", summary.status, summary.iterations, first, own_text)
-    written = [name for name in ("summary.json", "history.csv", "history.png")
-               if (out / name).exists()]
+    written = [name for name in ("summary.json", "history.csv", "history.png", "fields.xdmf",
+                                 "growth.npz") if (out / name).exists()]
     log.info("results in %s: %s", out, ", ".join(written))
 
