@@ -26,7 +26,7 @@ from mpi4py import MPI
 
 from .. import compat
 from ..config import Config
-from ..config.shell_checks import solid_config
+from ..config.shell_checks import SHELL_KINDS, solid_config
 from ..errors import StateSolveError
 from ..io import files as io
 from ..io.records import Lifted, Verified
@@ -61,7 +61,8 @@ def _fixed_fields(cfg: Config) -> tuple[int, ...]:
     leaves out keeps its stretches on both faces."""
     design = cfg.growth.eigenvalues.design
     chosen = set(design) if design is not None else {1, 2, 3}
-    return tuple(f for i in (0, 1) if i + 1 not in chosen for f in (i, i + 2))
+    tangents = SHELL_KINDS[cfg.geometry.kind].tangents
+    return tuple(f for i in (0, 1) if tangents[i] + 1 not in chosen for f in (i, i + 2))
 
 
 def _verify(cfg: Config, body, comm: MPI.Comm) -> tuple[Verified | None, ForwardModel | None]:

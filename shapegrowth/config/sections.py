@@ -128,8 +128,9 @@ class ModelConfig:
     reduction: str = option(
         "dim 2: what the third direction does: plane_strain (no stretch), plane_stress (free "
         "stretch, no stress), axisymmetric (the hoop stretch (R + u_R)/R of a body of "
-        "revolution about X3), or shell: a thin box's or tube's mid-surface as a growth "
-        "shell, its growth lifted onto the 3D wall for the verification (docs/SHELLS.md)",
+        "revolution about X3), or shell: a thin box's, tube's or cylinder shell's "
+        "mid-surface as a growth shell, its growth lifted onto the 3D wall for the "
+        "verification (docs/SHELLS.md)",
         "plane_strain", choices=REDUCTIONS)
     degree: int = option("polynomial degree of the displacement", 2, choices=(1, 2))
     quadrature_degree: int | None = option(

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from .sections import resolved
@@ -14,9 +15,28 @@ from .sections import resolved
 if TYPE_CHECKING:
     from .root import Config
 
-SHELL_BODIES = ("box", "tube")
-SHELL_FRAMES = {"box": "cartesian", "tube": "tube"}  # the frame whose tangents the shell's are
-SHELL_CLAMPS = ("x1_min", "x1_max")
+@dataclass(frozen=True)
+class ShellKind:
+    """How a thin body's shell stands for it: the growth's ``frame``, the ``axis`` of a
+    curved wall (0: X1, 2: X3; None: the plane X3 = 0), the growth eigenvalues (0-based)
+    along the shell's two tangents (along the axis, or X1, first) and across the wall, and
+    the clamps at its ends: name -> (coordinate, the geometry key of its value, or None: 0)."""
+
+    frame: str
+    axis: int | None
+    tangents: tuple[int, int]
+    across: int
+    ends: dict[str, tuple[int, str | None]]
+
+
+SHELL_KINDS = {
+    "box": ShellKind("cartesian", None, (0, 1), 2,
+                     {"x1_min": (0, None), "x1_max": (0, "length")}),
+    "tube": ShellKind("tube", 0, (0, 1), 2, {"x1_min": (0, None), "x1_max": (0, "length")}),
+    "cylinder_shell": ShellKind("cylindrical", 2, (2, 1), 0,
+                                {"bottom_rim": (2, None), "top_rim": (2, "height")}),
+}
+SHELL_BODIES = tuple(SHELL_KINDS)
 
 
 def solid_config(cfg: Config) -> Config:
@@ -30,22 +50,25 @@ def check_shell(cfg: Config, errors: list[str],
     """``cfg`` with a shell model, checked: as the 3D body it stands for (``check_solid``,
     the 3D config's rules) and by the shell's own; its model keys kept."""
     kind = cfg.geometry.kind
-    if kind not in SHELL_BODIES:
-        errors.append(f"model.reduction: shell models a thin box or tube, not a {kind}; use "
-                      "model.dim: 3 (or a section: plane_strain for a box, axisymmetric for an "
-                      "annulus or cylinder_shell)")
+    if kind not in SHELL_KINDS:
+        errors.append(f"model.reduction: shell models a thin box, tube or cylinder_shell, not "
+                      f"a {kind}; use model.dim: 3 (or axisymmetric, the annulus's section)")
         return cfg
     if cfg.model.plane is not None:
         errors.append("model.plane: a shell's mid-surface is its body's own, it has no plane; "
                       "remove the key")
+    if cfg.model.degree != 2:
+        errors.append("model.degree: a shell's displacement is P2 (with the cubic bubble), its "
+                      "director's angles P2; set 2 or remove the key")
     solid = check_solid(solid_config(cfg), errors)
-    frame = SHELL_FRAMES[kind]
+    body = SHELL_KINDS[kind]
+    frame = body.frame
     if solid.growth.frame != frame:
         errors.append(f"growth.frame: a {kind}'s shell grows along its {frame} frame (the "
                       f"shell's tangents, and across the wall); set growth.frame: {frame}")
     clamped = solid.boundary.clamped
-    if not set(clamped) <= set(SHELL_CLAMPS):
-        errors.append(f"boundary.clamp: a shell is clamped at its ends ({', '.join(SHELL_CLAMPS)}"
+    if not set(clamped) <= set(body.ends):
+        errors.append(f"boundary.clamp: a shell is clamped at its ends ({', '.join(body.ends)}"
                       f"), not {', '.join(clamped)}; use model.dim: 3 for another support")
     if solid.boundary.fix:
         errors.append("boundary.fix: a shell is held by its clamp alone; remove the key or use "
@@ -59,13 +82,15 @@ def check_shell(cfg: Config, errors: list[str],
                       "carried by it); a target.surface or target.mesh needs model.dim: 3")
     eig = solid.growth.eigenvalues
     initial = resolved(eig.initial) if eig.initial is not None else None
+    across = body.across
     if initial is not None and len(initial) == 3 and not (
-            isinstance(initial[2], (int, float)) and initial[2] == 1):
-        errors.append("growth.eigenvalues.initial: a shell keeps its wall's thickness (lambda_3 "
-                      "= 1); give 1.0 as the third value, or use model.dim: 3")
+            isinstance(initial[across], (int, float)) and initial[across] == 1):
+        errors.append(f"growth.eigenvalues.initial: a shell keeps its wall's thickness "
+                      f"(lambda_{across + 1} = 1, across it); give 1.0 there, or use "
+                      "model.dim: 3")
     if eig.incompressible:
-        errors.append("growth.eigenvalues.incompressible: not on a shell (lambda_3 = 1); "
-                      "remove the key")
+        errors.append("growth.eigenvalues.incompressible: not on a shell (its wall's "
+                      "thickness is kept); remove the key")
     growth = solid.growth
     if growth.levels is not None:
         errors.append("growth.levels: a shell's design is continuous; remove the key or use "

@@ -25,6 +25,7 @@ import numpy as np
 from mpi4py import MPI
 
 from .. import compat
+from ..config.shell_checks import SHELL_KINDS
 from ..physics.boundary import body_box
 from ..physics.model import ForwardModel
 from ..physics.paths import solve_watched
@@ -56,47 +57,73 @@ def _on_solid(source: dolfinx.fem.Function, space) -> np.ndarray:
     return target.x.array
 
 
-def _tube_radius(mesh) -> float:
-    """The radius of a tube shell's mid-surface about X1 (its nodes'), refused where the
-    mesh is not such a cylinder."""
-    x = mesh.geometry.x
-    r = np.hypot(x[:, 1], x[:, 2])
+def _across(points: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """The distance of points (n, 3) from the coordinate ``axis`` and the unit vectors away
+    from it (n, 3)."""
+    a, b = [i for i in range(3) if i != axis]
+    r = np.hypot(points[:, a], points[:, b])
+    away = np.zeros_like(points)
+    away[:, a], away[:, b] = points[:, a] / r, points[:, b] / r
+    return r, away
+
+
+def _wall_radius(mesh, axis: int) -> float:
+    """The radius of a curved shell's mid-surface about ``axis`` (its nodes'), refused where
+    the mesh is not such a cylinder."""
+    r = _across(mesh.geometry.x, axis)[0]
     comm = mesh.comm
     hi = comm.allreduce(float(r.max(initial=0.0)), op=MPI.MAX)
     lo = comm.allreduce(float(r.min(initial=np.inf)), op=MPI.MIN)
     if hi - lo > 1e-9 * hi:
-        raise ValueError("a curved shell lifts onto the 3D tube: its mid-surface a cylinder "
-                         "about X1 (mid_surfaces.tube_surface with axis 0)")
+        raise ValueError("a curved shell lifts onto the 3D tube or cylinder shell: its "
+                         "mid-surface a cylinder about X1 or X3 (mid_surfaces.tube_surface)")
     return hi
 
 
 def lift_shell_growth(stretches: dolfinx.fem.Function, solid: ForwardModel) -> None:
     """Set the 3D wall's growth to the shell's ``stretches`` (m_1, m_2, s_1, s_2) linear
     through the wall (collective): a plate's onto the box of the Cartesian frame, a tube's
-    onto the tube of the tube frame."""
+    onto the tube of the tube frame, a cylinder shell's onto its body of the cylindrical
+    frame (the shell's tangents along and round the axis are that frame's lambda_3 and
+    lambda_2, lambda_1 across: config.shell_checks.SHELL_KINDS)."""
     growth = solid.growth
     curved = stretches.function_space.mesh.geometry.dim == 3
-    frame = "tube" if curved else "cartesian"
-    if growth.frame != frame or len(growth.eigenvalues) != 3 or growth.angles:
-        raise ValueError("a shell's growth lifts onto a 3D body of the "
-                         + ("tube frame" if curved else "Cartesian frame"))
+    kind = SHELL_KINDS.get(solid.cfg.geometry.kind)
+    if kind is None or (kind.axis is not None) != curved or growth.frame != kind.frame \
+            or len(growth.eigenvalues) != 3 or growth.angles:
+        raise ValueError("a shell's growth lifts onto its own 3D body: a plate's onto a box "
+                         "(Cartesian frame), a tube's onto a tube (tube frame), a cylinder "
+                         "shell's onto a cylinder shell (cylindrical frame)")
     points = growth.space.tabulate_dof_coordinates()
-    if curved:
-        radius = _tube_radius(stretches.function_space.mesh)
-        zeta = np.hypot(points[:, 1], points[:, 2]) - radius
+    if kind.axis is not None:
+        radius = _wall_radius(stretches.function_space.mesh, kind.axis)
+        zeta = _across(points, kind.axis)[0] - radius
         values = surface_values([stretches], points)[0][0]
         parts = [values[:, i] for i in range(4)]
     else:
         zeta = points[:, 2] - _mid_plane(solid)
         parts = [_on_solid(sub_function(stretches, i), growth.space) for i in range(4)]
-    for i in range(2):
-        growth.eigenvalues[i].x.array[:] = (parts[i] + zeta * parts[i + 2]) ** 2
-    growth.eigenvalues[2].x.array[:] = 1.0
+    for i, eigenvalue in enumerate(kind.tangents):
+        growth.eigenvalues[eigenvalue].x.array[:] = (parts[i] + zeta * parts[i + 2]) ** 2
+    growth.eigenvalues[kind.across].x.array[:] = 1.0
 
 
 def _mid_plane(solid: ForwardModel) -> float:
     lo, hi = body_box(solid.domain.mesh)
     return 0.5 * float(lo[2] + hi[2])
+
+
+def _axis(mesh) -> int:
+    """The coordinate axis a curved shell's cylinder is about: X1 or X3 (collective)."""
+    for axis in (0, 2):
+        a, b = [i for i in range(3) if i != axis]
+        r = np.hypot(mesh.geometry.x[:, a], mesh.geometry.x[:, b])
+        lo = mesh.comm.allreduce(float(r.min(initial=np.inf)), op=MPI.MIN)
+        hi = mesh.comm.allreduce(float(r.max(initial=0.0)), op=MPI.MAX)
+        if hi - lo <= 1e-9 * hi:
+            return axis
+    raise ValueError("a curved shell lifts onto the 3D tube or cylinder shell: its "
+                     "mid-surface a cylinder about X1 or X3 (mid_surfaces.tube_surface)")
 
 
 def departure(shell: GrowthShell, solid: ForwardModel) -> float:
@@ -106,12 +133,10 @@ def departure(shell: GrowthShell, solid: ForwardModel) -> float:
     space = u3.function_space
     mesh = space.mesh
     X = space.tabulate_dof_coordinates()
-    n = len(X)
     if shell.reference.curved:
-        radius = _tube_radius(shell.mesh)
-        r = np.hypot(X[:, 1], X[:, 2])
-        across = np.zeros((n, 3))
-        across[:, 1], across[:, 2] = X[:, 1] / r, X[:, 2] / r
+        axis = _axis(shell.mesh)
+        radius = _wall_radius(shell.mesh, axis)
+        r, across = _across(X, axis)
         zeta = r - radius
         middle = X - zeta[:, None] * across  # the mid-surface's point below each node
         (moved, director), _ = surface_values(
