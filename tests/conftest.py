@@ -142,6 +142,22 @@ def taylor_in_points(H, a, b, dp, eps0: float):
     return taylor_test(J, dJ, np.zeros(3 * n), dp.ravel(), eps0=eps0, steps=4)
 
 
+def design_taylor(problem, seed: int, scale: float, eps0: float, steps: int):
+    """The Taylor test (optim.taylor) of a design problem (``ShellDesign``: evaluate(x,
+    gradient)) from its current design along ``scale`` times a standard normal step drawn
+    with ``seed`` on each rank (collective)."""
+    import numpy as np
+    from mpi4py import MPI
+
+    from shapegrowth.optim.taylor import taylor_test
+
+    start = problem.current()
+    step = scale * np.random.default_rng(seed).standard_normal(start.shape)
+    return taylor_test(lambda x: problem.evaluate(x, gradient=False).value.total,
+                       lambda x: problem.evaluate(x).gradient, start, step, eps0=eps0,
+                       steps=steps, dot=lambda a, b: MPI.COMM_WORLD.allreduce(float(a @ b)))
+
+
 def shell_taylor_rates(shell, objective, design, step) -> tuple[list[float], list[float]]:
     """A growth shell's Taylor test (optim.taylor): J(m + h dm) - J(m) - h dJ.dm at h 0.1,
     0.05, 0.025 (``design`` m, ``step`` dm, both Functions of one space; J the UFL

@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import run_cli
+from conftest import design_taylor, run_cli
 from mpi4py import MPI
 
 from shapegrowth.config import ConfigError, from_dict
@@ -177,7 +177,6 @@ def test_the_faces_design_of_a_config_s_shell_passes_its_taylor_test():
     1.91, 2.11, 2.10 serially; 2.20, 2.15, 2.06 on 2 ranks, whose random steps differ)."""
     from shapegrowth.optim.shell_objective import ShellCloud
     from shapegrowth.optim.shell_problem import ShellDesign
-    from shapegrowth.optim.taylor import taylor_test
     from shapegrowth.physics.shell_bodies import design_bounds, shell_body
     from shapegrowth.shape.hausdorff import SmoothHausdorff
     from shapegrowth.shape.targets import mapped_points
@@ -190,12 +189,7 @@ def test_the_faces_design_of_a_config_s_shell_passes_its_taylor_test():
     lower, upper = design_bounds(cfg)
     problem = ShellDesign(body.shell, target, SmoothHausdorff(alpha=50.0), lower, upper, cloud,
                           filter_length=0.2, form="debiased")
-    start = problem.current()
-    rng = np.random.default_rng(4)
-    step = 0.02 * rng.standard_normal(start.shape)
-    result = taylor_test(lambda x: problem.evaluate(x, gradient=False).value.total,
-                         lambda x: problem.evaluate(x).gradient, start, step, eps0=0.02,
-                         steps=3, dot=lambda a, b: MPI.COMM_WORLD.allreduce(float(a @ b)))
+    result = design_taylor(problem, seed=4, scale=0.02, eps0=0.02, steps=3)
     assert result.min_rate > 1.9, result
 
 
