@@ -151,12 +151,15 @@ def run_shell(cfg: Config, out: Path) -> ShellRun:
         hausdorff_final=final.value.hausdorff if final else None,
         target_size=size, wall_time_s=timer.wall, time_split=timer.split(),
         newton_iterations_total=sum(r.newton_iterations for r in history),
-        continuation_steps=start.steps, failed_steps=0, growth_reached=start.level,
+        # the best design's last solve (the start's from rest where none was evaluated)
+        continuation_steps=final.report.steps if final else start.steps,
+        failed_steps=final.report.failed_steps if final else start.failed_steps,
+        growth_reached=final.report.reached if final else start.level,
         dofs=Dofs(shell_dofs, compat.global_size(body.faces.function_space)),
         mpi_size=comm.size, version=__version__, dolfinx_version=compat.DOLFINX_VERSION,
         mesh=f"shell: the mid-surface of the {cfg.geometry.kind}",
         config=cfg.to_dict(),
-        optimization=OptimizationMeasures(evaluations, 0.0, None, None, False),
+        optimization=OptimizationMeasures(evaluations, None, None, None, False),
         verified=verified, peak_memory_mb=peak_memory_mb(comm))
     io.write_history(out, history, comm)
     io.write_json(out / "summary.json", summary.to_json(), comm)

@@ -44,7 +44,7 @@ class OptimizationMeasures:
     """What ``shapegrowth run`` measures beyond the common keys."""
 
     evaluations: int
-    residual_strain: float
+    residual_strain: float | None  # None: not measured (a shell run's, on its 3D body's terms)
     # the best growth applied to the body at rest (None where that solve failed)
     rho_H_from_rest: float | None
     hausdorff_from_rest: float | None

@@ -88,6 +88,7 @@ class ShellDesign:
         with self.timer("forward"):
             solved = self.shell.solve()
         report = SolveReport(converged=solved.converged, steps=solved.steps,
+                             failed_steps=solved.failed_steps,
                              newton_iterations=solved.newton_iterations, reached=solved.level,
                              reason="" if solved.converged else
                              f"the shell reached {solved.level:.4g} of the growth")

@@ -97,6 +97,7 @@ class ShellSolveReport:
     steps: int
     newton_iterations: int
     level: float  # the share of the growth reached
+    failed_steps: int = 0  # continuation steps that failed and were halved
 
 
 class GrowthShell:
@@ -328,6 +329,7 @@ class GrowthShell:
         # must not be the iterate a line search steps from
         x = q.copy()
         level, step, steps, iterations = float(self.level.value), initial_step, 0, 0
+        failed = 0
         before: tuple[float, PETSc.Vec] | None = None  # the equilibrium one step back
         while level < 1.0:
             trial = min(1.0, level + step)
@@ -354,10 +356,11 @@ class GrowthShell:
             self._at(x)
             self.level.value = level
             step *= 0.5
+            failed += 1
             if step < min_step:
                 log.warning("shell: no equilibrium past %.4g of the growth", level)
-                return ShellSolveReport(False, steps, iterations, level)
-        return ShellSolveReport(True, steps, iterations, level)
+                return ShellSolveReport(False, steps, iterations, level, failed)
+        return ShellSolveReport(True, steps, iterations, level, failed)
 
     # ---- results ---------------------------------------------------------------------------
 
