@@ -105,8 +105,9 @@ def _owned(f):
     return f.x.array.reshape(-1, 4)[:n]
 
 
+@pytest.mark.slow  # 14 s alone, 27 s beside the fast tier's other worker
 @pytest.mark.mpi
-@pytest.mark.simplex  # the 3D box's DOFs and numbers on tetrahedra
+@pytest.mark.simplex  # the 3D box's numbers on tetrahedra
 def test_the_arc_s_growth_starts_the_shell_exactly_and_verifies_on_the_3d_box(shared_tmp):
     """lambda_1 = (1 + kappa x3)^2 is the shell's design exactly (faces' stretches 1 -+ kappa
     t/2, so m_1 = 1 and s_1 = kappa); one iteration from it, the shell's wall lies 5.2e-4 of
@@ -227,7 +228,7 @@ def test_a_tube_s_shell_from_a_config_carries_the_bent_tube_s_growth_to_the_3d_t
 CYLINDER = {
     "name": "cylinder_shell", "geometry": {"kind": "cylinder_shell", "radius": 0.2,
                                            "height": 0.2, "thickness": 0.02},
-    "mesh": {"size": 0.1, "layers": 1}, "model": {"dim": 2, "reduction": "shell"},
+    "mesh": {"size": 0.2, "layers": 1}, "model": {"dim": 2, "reduction": "shell"},
     "boundary": {"clamp": "bottom_rim"},
     "growth": {"frame": "cylindrical", "eigenvalues": {"initial": [1.0, 1.44, 1.21]}},
     "target": {"map": ["x1", "x2", "1.1*x3"]},
@@ -262,8 +263,9 @@ def test_a_cylinder_shell_s_tangents_are_its_frame_s_lambda_3_and_lambda_2():
 def test_a_cylinder_shell_grown_along_its_axis_is_the_taller_cylinder(shared_tmp):
     """lambda_3 = 1.21 along the axis (the clamped rim stays): the shell's wall and the 3D
     cylinder shell grown from rest by the lifted growth are the target's 1.1 times taller
-    cylinder (measured: 4.7e-13 and 3.1e-16 of its size; the 3D body leaves the shell by
-    3.8e-6)."""
+    cylinder (measured at mesh size 0.2, 6 x 2 shell cells and 2 400 3D DOFs: 3.8e-16 of
+    its size in 3D; the 3D body leaves the shell by 8.5e-5, the shell's six-sided wall
+    against the round one; at 0.1: 4.7e-13, 3.1e-16 and 3.8e-6)."""
     from shapegrowth.commands.shell_run import run_shell
 
     raw = copy.deepcopy(CYLINDER)
@@ -272,4 +274,4 @@ def test_a_cylinder_shell_grown_along_its_axis_is_the_taller_cylinder(shared_tmp
     summary = run_shell(from_dict(raw), shared_tmp / "out").summary
     lifted = summary.verified.lifted
     assert summary.relative_error < 1e-8
-    assert lifted.relative < 1e-8 and lifted.departure < 1e-5
+    assert lifted.relative < 1e-8 and lifted.departure < 1e-3
