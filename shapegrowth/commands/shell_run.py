@@ -65,7 +65,8 @@ def _fixed_fields(cfg: Config) -> tuple[int, ...]:
     return tuple(f for i in (0, 1) if tangents[i] + 1 not in chosen for f in (i, i + 2))
 
 
-def _verify(cfg: Config, body, comm: MPI.Comm) -> tuple[Verified | None, ForwardModel | None]:
+def _verify(cfg: Config, body, shell_dofs: int, comm: MPI.Comm
+            ) -> tuple[Verified | None, ForwardModel | None]:
     """The shell's best growth on the 3D body of ``cfg`` (its verification mesh), grown from
     rest and measured, and that 3D body where it reached an equilibrium (collective); None
     with verify off."""
@@ -77,19 +78,18 @@ def _verify(cfg: Config, body, comm: MPI.Comm) -> tuple[Verified | None, Forward
              "from rest", cfg.geometry.kind, solid_cfg.mesh.refine)
     solid = ForwardModel.build(solid_cfg, comm)
     lifted = lift_shell(body.shell, body.stretches(), solid)
-    shell_dofs = compat.global_size(body.shell.V)
-    status = "not refined: a shell is verified on its 3D body (lifted)"
-    if not lifted.converged:
+    if lifted.converged:
+        measured = measure_verified(solid_cfg, solid.state)
+        record = Lifted(measured.hausdorff, measured.relative, lifted.dofs,
+                        time.perf_counter() - tic, "solved", f"{cfg.name} (3D)",
+                        lifted.departure, surface=measured.surface)
+    else:
         record = Lifted(None, None, lifted.dofs, time.perf_counter() - tic,
                         "failed: no equilibrium of the 3D body from rest", cfg.name)
-        return Verified(None, None, cfg.verify.refine, shell_dofs, 0.0, False, status,
-                        lifted=record), None
-    measured = measure_verified(solid_cfg, solid.state)
-    record = Lifted(measured.hausdorff, measured.relative, lifted.dofs,
-                    time.perf_counter() - tic, "solved", f"{cfg.name} (3D)", lifted.departure,
-                    surface=measured.surface)
-    return Verified(None, None, cfg.verify.refine, shell_dofs, 0.0, False, status,
-                    lifted=record), solid
+    verified = Verified(None, None, cfg.verify.refine, shell_dofs, 0.0, False,
+                        "not refined: a shell is verified on its 3D body (lifted)",
+                        lifted=record)
+    return verified, solid if lifted.converged else None
 
 
 def run_shell(cfg: Config, out: Path) -> ShellRun:
@@ -109,8 +109,7 @@ def run_shell(cfg: Config, out: Path) -> ShellRun:
     rho = SmoothHausdorff(alpha=h.alphas[0], beta=h.beta, gamma=h.gamma, phi=h.phi,
                           cutoff=h.cutoff, taper=h.taper, precision=h.precision)
     lower, upper = design_bounds(cfg)
-    history, status, evaluations = [], Outcome.failed("no equilibrium of the shell at its "
-                                                      "initial growth"), 0
+    history, status = [], Outcome.failed("no equilibrium of the shell at its initial growth")
     final = None
     if start.converged:
         problem = ShellDesign(body.shell, target, rho, lower, upper, cloud,
@@ -125,7 +124,6 @@ def run_shell(cfg: Config, out: Path) -> ShellRun:
             except StateSolveError as err:
                 log.warning("shell: the best design's state is not found again (%s); the "
                             "history is kept, nothing is verified", err.report.reason)
-        evaluations = len(history)
     else:
         log.warning("shell: no equilibrium at the initial growth (reached %.3g of it)",
                     start.level)
@@ -133,7 +131,7 @@ def run_shell(cfg: Config, out: Path) -> ShellRun:
     verified, solid = None, None
     if final is not None:
         with timer("forward", "verification"):
-            verified, solid = _verify(cfg, body, comm)
+            verified, solid = _verify(cfg, body, shell_dofs, comm)
     if solid is not None:  # the 3D body's fields: what the verified number measured
         with timer("io"):
             applied = solid.applied
@@ -159,7 +157,7 @@ def run_shell(cfg: Config, out: Path) -> ShellRun:
         mpi_size=comm.size, version=__version__, dolfinx_version=compat.DOLFINX_VERSION,
         mesh=f"shell: the mid-surface of the {cfg.geometry.kind}",
         config=cfg.to_dict(),
-        optimization=OptimizationMeasures(evaluations, None, None, None, False),
+        optimization=OptimizationMeasures(len(history), None, None, None, False),
         verified=verified, peak_memory_mb=peak_memory_mb(comm))
     io.write_history(out, history, comm)
     io.write_json(out / "summary.json", summary.to_json(), comm)

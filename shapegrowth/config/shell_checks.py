@@ -10,8 +10,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from .sections import resolved
-
 if TYPE_CHECKING:
     from .root import Config
 
@@ -81,7 +79,7 @@ def check_shell(cfg: Config, errors: list[str],
         errors.append("target.map: a shell's target is a map of its body (the wall's cloud "
                       "carried by it); a target.surface or target.mesh needs model.dim: 3")
     eig = solid.growth.eigenvalues
-    initial = resolved(eig.initial) if eig.initial is not None else None
+    initial = eig.initial
     across = body.across
     if initial is not None and len(initial) == 3 and not (
             isinstance(initial[across], (int, float)) and initial[across] == 1):

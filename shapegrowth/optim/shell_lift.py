@@ -113,19 +113,6 @@ def _mid_plane(solid: ForwardModel) -> float:
     return 0.5 * float(lo[2] + hi[2])
 
 
-def _axis(mesh) -> int:
-    """The coordinate axis a curved shell's cylinder is about: X1 or X3 (collective)."""
-    for axis in (0, 2):
-        a, b = [i for i in range(3) if i != axis]
-        r = np.hypot(mesh.geometry.x[:, a], mesh.geometry.x[:, b])
-        lo = mesh.comm.allreduce(float(r.min(initial=np.inf)), op=MPI.MIN)
-        hi = mesh.comm.allreduce(float(r.max(initial=0.0)), op=MPI.MAX)
-        if hi - lo <= 1e-9 * hi:
-            return axis
-    raise ValueError("a curved shell lifts onto the 3D tube or cylinder shell: its "
-                     "mid-surface a cylinder about X1 or X3 (mid_surfaces.tube_surface)")
-
-
 def departure(shell: GrowthShell, solid: ForwardModel) -> float:
     """The largest distance of a 3D node from phi + zeta d of the shell, over the body's
     size (collective)."""
@@ -133,8 +120,9 @@ def departure(shell: GrowthShell, solid: ForwardModel) -> float:
     space = u3.function_space
     mesh = space.mesh
     X = space.tabulate_dof_coordinates()
+    axis = SHELL_KINDS[solid.cfg.geometry.kind].axis
     if shell.reference.curved:
-        axis = _axis(shell.mesh)
+        assert axis is not None, "a curved shell's 3D body is a tube or a cylinder shell"
         radius = _wall_radius(shell.mesh, axis)
         r, across = _across(X, axis)
         zeta = r - radius

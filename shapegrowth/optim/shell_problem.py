@@ -7,7 +7,6 @@ the shell's adjoint (optim/shell_objective.py) and the filter's transpose."""
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
 
 import dolfinx.fem
@@ -39,7 +38,7 @@ class ShellDesign:
                  fixed: Sequence[int] = (), timer: Timer | None = None):
         if shell.design is None:
             raise ValueError("the shell was built without a design: nothing to optimise")
-        self.shell, self.target, self.rho = shell, target, rho
+        self.shell, self.target = shell, target
         self.cloud = ShellCloud(shell) if cloud is None else cloud
         self.comm: MPI.Comm = shell.mesh.comm
         self.design = shell.design
@@ -57,7 +56,9 @@ class ShellDesign:
             here = self.design.x.array[field:self.n_owned:self.fields]
             self.lower[field::self.fields] = here
             self.upper[field::self.fields] = here
-        self.form = form  # the shape term: rho_H itself ("paper") or debiased
+        # the shape term (rho_H itself, "paper", or debiased), kept from one evaluation to
+        # the next: a debiased one computes rho_H(T, T) once per alpha, not per evaluation
+        self.divergence = ShapeDivergence(rho, form)
         self.timer = timer if timer is not None else Timer()
         self._last: tuple[bytes, Evaluation] | None = None
         space = self.design.function_space
@@ -95,8 +96,7 @@ class ShellDesign:
         if not solved.converged:
             raise StateSolveError(report)
         with self.timer("hausdorff"):  # and the shell's adjoint, where gradient
-            term, dJ = self.cloud.shape_term(self.target, ShapeDivergence(self.rho, self.form),
-                                             gradient)
+            term, dJ = self.cloud.shape_term(self.target, self.divergence, gradient)
         result = term.pair
         value = ObjectiveValue(total=term.value, rho_H=result.value, complexity=0.0,
                                d_target_to_body=result.d_target_to_body,
@@ -112,9 +112,14 @@ class ShellDesign:
         self._last = (key, evaluation)
         return evaluation
 
+    @property
+    def rho(self) -> SmoothHausdorff:
+        """rho_H of (2.9) at the current alpha."""
+        return self.divergence.rho
+
     def set_alpha(self, alpha: float) -> None:
         if alpha != self.rho.alpha:
-            self.rho = dataclasses.replace(self.rho, alpha=alpha)
+            self.divergence = self.divergence.with_alpha(alpha)
             self._last = None
 
     def set_sharpness(self, beta: float) -> None:
